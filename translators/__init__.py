@@ -1,0 +1,1 @@
+"""Translator plugins (entry-point group ``edge_vis.translators``), one per JAUS service set."""
