@@ -21,7 +21,29 @@ from edge_vis.errors import EdgeVisError
 
 def _command_modules() -> list[ModuleType]:
     names = sorted(m.name for m in pkgutil.iter_modules(commands.__path__) if not m.ispkg)
-    return [importlib.import_module(f"edge_vis.commands.{name}") for name in names]
+    modules = []
+    for name in names:
+        try:
+            modules.append(importlib.import_module(f"edge_vis.commands.{name}"))
+        except ImportError as exc:  # one broken command must not take the others down
+            modules.append(_unavailable(name.replace("_", "-"), exc))
+    return modules
+
+
+def _unavailable(name: str, exc: ImportError) -> ModuleType:
+    """A stand-in command module that explains why the real one cannot load."""
+    stub = ModuleType(f"edge_vis.commands.{name}")
+
+    def run(args: argparse.Namespace) -> int:
+        print(f"edge-vis {name}: unavailable: {exc}", file=sys.stderr)
+        return 2
+
+    stub.NAME = name  # type: ignore[attr-defined]
+    stub.HELP = f"(unavailable: {exc})"  # type: ignore[attr-defined]
+    stub.add_arguments = lambda parser: parser.add_argument(  # type: ignore[attr-defined]
+        "rest", nargs=argparse.REMAINDER)
+    stub.run = run  # type: ignore[attr-defined]
+    return stub
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -42,6 +42,7 @@ class Int:
 
     bits: int
     signed: bool = False
+    units: str = ""
 
     def __post_init__(self) -> None:
         if self.bits not in (8, 16, 32, 64):
@@ -78,6 +79,7 @@ class Float:
     """An IEEE 754 float of 32 or 64 bits."""
 
     bits: int
+    units: str = ""
 
     @property
     def size(self) -> int:

@@ -1,0 +1,490 @@
+"""The DDS side of a relay: one Cyclone participant, writers per topic, command readers. I/O.
+
+:class:`DdsBridge` turns ``Publish(topic, sample_dict)`` actions into DDS writes and DDS
+command samples into ``(topic, dict)`` deliveries. Converting and checking dicts is
+:mod:`edge_vis.dds.convert`; the QoS per topic kind is :mod:`edge_vis.dds.qos`.
+
+Life cycle::
+
+    DdsBridge(...)                          participant, publisher, subscriber exist
+      -> (open_writers | publish | dispose | unregister | subscribe | take | reader)*
+      -> close()                            idempotent; also on ``with`` exit
+
+Delivery of received samples, two ways:
+
+* ``subscribe(names, on_sample, loop=loop)``: one delivery thread per bridge blocks in a
+  Cyclone WaitSet (no polling, no busy loop) and, when samples arrive, takes them, converts
+  them to dicts and hands each batch to ``loop.call_soon_threadsafe`` so ``on_sample(topic,
+  dict)`` runs in the asyncio loop. Without ``loop`` the callback runs in the delivery
+  thread and must be thread-safe. Latency is one thread wake-up plus one loop iteration.
+* ``subscribe(names)`` without a callback: samples wait in the readers' caches until
+  :meth:`DdsBridge.take` polls them (non-blocking; suitable for a loop that polls anyway).
+
+:meth:`DdsBridge.reader` gives operator-side tools (monitor, tests) a :class:`TopicReader`
+for any topic, with blocking ``take(timeout)`` and non-destructive ``read``.
+
+Threads: ``publish`` may be called from any one thread at a time; callbacks come from the
+delivery thread or the given loop.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import threading
+import time
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from cyclonedds.core import (
+    DDSException,
+    GuardCondition,
+    InstanceState,
+    ReadCondition,
+    SampleState,
+    ViewState,
+    WaitSet,
+)
+from cyclonedds.domain import Domain, DomainParticipant
+from cyclonedds.pub import DataWriter, Publisher
+from cyclonedds.sub import DataReader, Subscriber
+from cyclonedds.topic import Topic
+from cyclonedds.util import duration
+
+from edge_vis.dds.convert import Converter, converter_for, key_members
+from edge_vis.dds.qos import QosSettings, partition_qos, topic_qos
+from edge_vis.dds.topics import TopicKind, TopicRegistry, TopicSpec
+from edge_vis.errors import LinkError
+
+log = logging.getLogger(__name__)
+
+OnSample = Callable[[str, dict[str, Any]], object]
+"""Receives ``(topic name, sample dict)``."""
+
+_ANY_SAMPLE = SampleState.Any | ViewState.Any | InstanceState.Any
+_BATCH = 256
+_RETCODE_PRECONDITION_NOT_MET = -4
+
+# Domains created with an explicit configuration live as long as the process: deleting a
+# Cyclone domain deletes every participant in it, including other bridges'.
+_DOMAINS: dict[int, Domain] = {}
+_DOMAINS_LOCK = threading.Lock()
+
+
+class DdsError(LinkError):
+    """A DDS operation failed (participant creation, write timeout, ...)."""
+
+
+@dataclass(slots=True)
+class _Subscription:
+    spec: TopicSpec
+    reader: DataReader[Any]
+    condition: ReadCondition
+    converter: Converter
+    on_sample: OnSample | None
+    loop: asyncio.AbstractEventLoop | None
+
+
+def _ensure_domain(domain_id: int, config: str) -> None:
+    with _DOMAINS_LOCK:
+        if domain_id in _DOMAINS:
+            return
+        try:
+            _DOMAINS[domain_id] = Domain(domain_id, config)
+        except DDSException as exc:
+            if exc.code != _RETCODE_PRECONDITION_NOT_MET:
+                raise DdsError(f"cannot configure DDS domain {domain_id}: {exc}") from exc
+            log.warning(
+                "DDS domain %d already exists in this process; its configuration stays", domain_id
+            )
+
+
+class DdsBridge:
+    """One DDS participant of a relay (or of an operator-side tool).
+
+    ``domain_id``: DDS domain. ``partitions``: DDS partitions for all writers and readers
+    (empty: the default partition). ``topics``: the topic registry (default: the standard
+    model). ``qos``: QoS tuning. ``config``: Cyclone XML or ``file://`` URL for the domain
+    (default: ``CYCLONEDDS_URI`` or Cyclone's defaults; see
+    :mod:`edge_vis.dds.cyclone_config`). ``max_command_age``: if set (seconds), command
+    samples whose source time stamp is older are dropped and counted; only meaningful with
+    synchronised clocks (NTP/PTP) between operator stations and the relay.
+
+    Raises :class:`DdsError` if the participant cannot be created.
+    """
+
+    def __init__(
+        self,
+        domain_id: int = 0,
+        partitions: Iterable[str] = (),
+        topics: TopicRegistry | Iterable[TopicSpec] | None = None,
+        *,
+        qos: QosSettings | None = None,
+        config: str | None = None,
+        max_command_age: float | None = None,
+    ) -> None:
+        if topics is None:
+            registry = TopicRegistry.standard()
+        elif isinstance(topics, TopicRegistry):
+            registry = topics
+        else:
+            registry = TopicRegistry(topics)
+        self.registry = registry
+        self.domain_id = domain_id
+        self.partitions = tuple(partitions)
+        self.qos_settings = qos or QosSettings()
+        self.max_command_age = max_command_age
+        # Compile every converter now so a bad plugin type fails at start-up, not mid-run.
+        self._converters = {spec.name: converter_for(spec.type) for spec in registry}
+        if config is not None:
+            _ensure_domain(domain_id, config)
+        try:
+            self._participant = DomainParticipant(domain_id)
+            part_qos = partition_qos(self.partitions)
+            self._publisher = Publisher(self._participant, qos=part_qos)
+            self._subscriber = Subscriber(self._participant, qos=part_qos)
+            self._guard = GuardCondition(self._participant)
+            self._waitset = WaitSet(self._participant)
+            self._waitset.attach(self._guard)
+        except DDSException as exc:
+            raise DdsError(f"cannot join DDS domain {domain_id}: {exc}") from exc
+        self._topics: dict[str, Topic[Any]] = {}
+        self._writers: dict[str, DataWriter[Any]] = {}
+        self._subscriptions: tuple[_Subscription, ...] = ()
+        self._readers: list[TopicReader] = []
+        self._lock = threading.Lock()
+        self._thread: threading.Thread | None = None
+        self._closed = False
+        self.counters: dict[str, int] = {
+            "published": 0,
+            "received": 0,
+            "stale_dropped": 0,
+            "callback_errors": 0,
+        }
+
+    # ------------------------------------------------------------------ writing
+
+    def spec(self, topic: str) -> TopicSpec:
+        """The registered spec of ``topic`` (``KeyError`` listing known topics)."""
+        return self.registry.get(topic)
+
+    def _topic(self, name: str) -> Topic[Any]:
+        topic = self._topics.get(name)
+        if topic is None:
+            spec = self.registry.get(name)
+            topic = Topic(self._participant, spec.name, spec.type)
+            self._topics[name] = topic
+        return topic
+
+    def _writer(self, name: str) -> DataWriter[Any]:
+        writer = self._writers.get(name)
+        if writer is None:
+            self._check_open()
+            spec = self.registry.get(name)
+            qos = topic_qos(spec.kind, self.qos_settings)
+            writer = DataWriter(self._publisher, self._topic(name), qos=qos)
+            self._writers[name] = writer
+        return writer
+
+    def open_writers(self, topics: Iterable[str]) -> None:
+        """Create the writers of ``topics`` now, so readers can discover them early.
+
+        Writers are otherwise created at the first :meth:`publish`; samples of a volatile
+        topic written before a reader has matched are not delivered to it.
+        """
+        for name in topics:
+            self._writer(name)
+
+    def publish(self, topic: str, sample: Mapping[str, Any]) -> None:
+        """Convert ``sample`` to ``topic``'s type and write it.
+
+        Raises ``KeyError`` for an unknown topic, :class:`~edge_vis.errors.EncodeError`
+        naming topic and member for a bad dict, :class:`DdsError` if the write fails (for
+        instance a reliable write blocked longer than the QoS allows).
+        """
+        writer = self._writers.get(topic) or self._writer(topic)
+        data = self._converters[topic].to_struct(sample, topic)
+        try:
+            writer.write(data)
+        except DDSException as exc:
+            raise DdsError(f"writing {topic!r} failed: {exc}") from exc
+        self.counters["published"] += 1
+
+    def dispose(self, topic: str, key: Any) -> None:
+        """Mark the instance ``key`` of ``topic`` as gone (e.g. a vehicle that left).
+
+        ``key`` is the key value (``"ugv1"``) for single-key topics, else a dict of the key
+        members. Readers see the instance as disposed; transient-local history drops it.
+        """
+        writer = self._writer(topic)
+        try:
+            writer.dispose(self._converters[topic].key_of(key, topic))
+        except DDSException as exc:
+            raise DdsError(f"disposing {key!r} on {topic!r} failed: {exc}") from exc
+
+    def unregister(self, topic: str, key: Any) -> None:
+        """Stop updating instance ``key`` of ``topic`` without declaring it gone."""
+        writer = self._writer(topic)
+        try:
+            writer.unregister_instance(self._converters[topic].key_of(key, topic))
+        except DDSException as exc:
+            raise DdsError(f"unregistering {key!r} on {topic!r} failed: {exc}") from exc
+
+    def matched_subscribers(self, topic: str) -> int:
+        """How many readers (local or remote) currently match our writer of ``topic``."""
+        return len(self._writer(topic).get_matched_subscriptions())
+
+    def wait_for_subscribers(self, topic: str, count: int = 1, timeout: float = 5.0) -> bool:
+        """Wait until ``count`` readers match our writer of ``topic``; False on timeout.
+
+        For start-up and tests: checks every 10 ms up to ``timeout`` seconds.
+        """
+        deadline = time.monotonic() + timeout
+        while self.matched_subscribers(topic) < count:
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.01)
+        return True
+
+    # ------------------------------------------------------------------ reading
+
+    def subscribe(
+        self,
+        topics: Iterable[str] | None = None,
+        on_sample: OnSample | None = None,
+        *,
+        loop: asyncio.AbstractEventLoop | None = None,
+    ) -> None:
+        """Read ``topics`` (default: every inbound/command topic of the registry).
+
+        With ``on_sample`` the delivery thread calls it as ``on_sample(topic, dict)``, in
+        ``loop`` if given (via ``call_soon_threadsafe``). Without it, poll with :meth:`take`.
+        """
+        self._check_open()
+        if loop is not None and on_sample is None:
+            raise ValueError("a loop only makes sense with an on_sample callback")
+        names = list(self.registry.inbound() if topics is None else topics)
+        added = []
+        with self._lock:
+            subscribed = {s.spec.name for s in self._subscriptions}
+            for name in names:
+                if name in subscribed:
+                    raise ValueError(f"topic {name!r} is already subscribed")
+                spec = self.registry.get(name)
+                reader = DataReader(
+                    self._subscriber, self._topic(name), qos=topic_qos(spec.kind, self.qos_settings)
+                )
+                condition = ReadCondition(reader, _ANY_SAMPLE)
+                added.append(
+                    _Subscription(
+                        spec, reader, condition, self._converters[name], on_sample, loop
+                    )
+                )
+                subscribed.add(name)
+            self._subscriptions += tuple(added)
+        if on_sample is not None:
+            for sub in added:
+                self._waitset.attach(sub.condition)
+            self._start_thread()
+            self._guard.set(True)
+
+    def take(self, max_samples: int = _BATCH) -> list[tuple[str, dict[str, Any]]]:
+        """Non-blocking: up to ``max_samples`` received ``(topic, dict)`` of the topics
+        subscribed without a callback, oldest first per topic."""
+        out: list[tuple[str, dict[str, Any]]] = []
+        for sub in self._subscriptions:
+            if sub.on_sample is None and len(out) < max_samples:
+                out += self._take_from(sub, max_samples - len(out))
+        return out
+
+    def _take_from(self, sub: _Subscription, limit: int) -> list[tuple[str, dict[str, Any]]]:
+        samples = sub.reader.take(N=limit, condition=sub.condition)
+        out = []
+        now_ns = time.time_ns()
+        for sample in samples:
+            info = sample.sample_info
+            if not info.valid_data:
+                continue  # an instance-state change (dispose, no writers), not data
+            if (
+                self.max_command_age is not None
+                and sub.spec.kind is TopicKind.COMMAND
+                and now_ns - info.source_timestamp > self.max_command_age * 1e9
+            ):
+                self.counters["stale_dropped"] += 1
+                log.warning(
+                    "dropped a %s sample %.3f s old (limit %.3f s)",
+                    sub.spec.name, (now_ns - info.source_timestamp) / 1e9, self.max_command_age,
+                )
+                continue
+            out.append((sub.spec.name, sub.converter.to_dict(sample)))
+        self.counters["received"] += len(out)
+        return out
+
+    def reader(self, topic: str) -> TopicReader:
+        """A :class:`TopicReader` of ``topic`` with the topic's QoS (for tools and tests)."""
+        self._check_open()
+        reader = TopicReader(self, self.registry.get(topic))
+        self._readers.append(reader)
+        return reader
+
+    # ------------------------------------------------------------------ delivery thread
+
+    def _start_thread(self) -> None:
+        if self._thread is None:
+            self._thread = threading.Thread(
+                target=self._deliver_forever, name=f"edge-vis-dds-{self.domain_id}", daemon=True
+            )
+            self._thread.start()
+
+    def _deliver_forever(self) -> None:
+        while not self._closed:
+            try:
+                self._waitset.wait(duration(seconds=1))
+            except DDSException:
+                if self._closed:
+                    return
+                raise
+            self._guard.take()
+            if self._closed:
+                return
+            for sub in self._subscriptions:
+                if sub.on_sample is None:
+                    continue
+                while True:
+                    batch = self._take_from(sub, _BATCH)
+                    if batch:
+                        self._hand_over(sub, batch)
+                    if not sub.condition.is_triggered():
+                        break
+
+    def _hand_over(self, sub: _Subscription, batch: list[tuple[str, dict[str, Any]]]) -> None:
+        if sub.loop is None:
+            self._call(sub.on_sample, batch)
+            return
+        try:
+            sub.loop.call_soon_threadsafe(self._call, sub.on_sample, batch)
+        except RuntimeError:  # the loop is closed: nobody is left to deliver to
+            log.warning("dropped %d %s sample(s): event loop closed", len(batch), sub.spec.name)
+
+    def _call(self, on_sample: OnSample | None, batch: list[tuple[str, dict[str, Any]]]) -> None:
+        assert on_sample is not None
+        for topic, sample in batch:
+            try:
+                on_sample(topic, sample)
+            except Exception:  # the shell keeps delivering; the failure is logged and counted
+                self.counters["callback_errors"] += 1
+                log.exception("on_sample callback failed for a %s sample", topic)
+
+    # ------------------------------------------------------------------ shutdown
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise DdsError("the DDS bridge is closed")
+
+    def close(self) -> None:
+        """Stop delivery and delete the participant and everything in it. Idempotent."""
+        if self._closed:
+            return
+        self._closed = True
+        self._guard.set(True)
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout=5.0)
+        for reader in self._readers:
+            reader.close()
+        entities: list[Any] = [self._waitset]
+        for sub in self._subscriptions:
+            entities += [sub.condition, sub.reader]
+        entities += list(self._writers.values())
+        entities += list(self._topics.values())
+        entities += [self._guard, self._publisher, self._subscriber, self._participant]
+        for entity in entities:
+            _delete(entity)
+        self._subscriptions = ()
+        self._writers.clear()
+        self._topics.clear()
+
+    def __enter__(self) -> DdsBridge:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class TopicReader:
+    """A reader of one topic that returns dicts; for operator-side tools and tests.
+
+    ``take(timeout)`` blocks in a WaitSet until data arrives (or the timeout passes) and
+    removes what it returns; ``read()`` returns what the reader holds without removing it
+    (with keep-last-1 topics: the latest sample of every instance).
+    """
+
+    def __init__(self, bridge: DdsBridge, spec: TopicSpec) -> None:
+        self.spec = spec
+        self.converter = converter_for(spec.type)
+        qos = topic_qos(spec.kind, bridge.qos_settings)
+        topic = bridge._topic(spec.name)
+        self._reader: DataReader[Any] = DataReader(bridge._subscriber, topic, qos=qos)
+        self._condition = ReadCondition(self._reader, _ANY_SAMPLE)
+        self._waitset = WaitSet(bridge._participant)
+        self._waitset.attach(self._condition)
+        self._closed = False
+
+    def wait(self, timeout: float) -> bool:
+        """Block up to ``timeout`` seconds for a sample; True if one is there."""
+        if self._condition.is_triggered():
+            return True
+        return bool(self._waitset.wait(duration(seconds=max(timeout, 0.0))))
+
+    def take(self, timeout: float = 0.0, max_samples: int = _BATCH) -> list[dict[str, Any]]:
+        """Up to ``max_samples`` sample dicts, waiting up to ``timeout`` s for the first."""
+        if timeout > 0:
+            self.wait(timeout)
+        return self._plain(self._reader.take(N=max_samples, condition=self._condition))
+
+    def read(self, max_samples: int = _BATCH) -> list[dict[str, Any]]:
+        """Up to ``max_samples`` sample dicts still held by the reader, not removing them."""
+        return self._plain(self._reader.read(N=max_samples))
+
+    def collect(self, count: int, timeout: float) -> list[dict[str, Any]]:
+        """Take until ``count`` samples arrived or ``timeout`` s passed; return them all."""
+        deadline = time.monotonic() + timeout
+        out: list[dict[str, Any]] = []
+        while len(out) < count:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                break
+            out += self.take(timeout=left)
+        return out
+
+    def _plain(self, samples: list[Any]) -> list[dict[str, Any]]:
+        return [self.converter.to_dict(s) for s in samples if s.sample_info.valid_data]
+
+    def instance_states(self) -> dict[tuple[Any, ...], str]:
+        """Key tuple -> ``"alive"``, ``"disposed"`` or ``"no_writers"`` for held instances."""
+        keys = key_members(self.spec.type)
+        states = {
+            InstanceState.Alive: "alive",
+            InstanceState.NotAliveDisposed: "disposed",
+            InstanceState.NotAliveNoWriters: "no_writers",
+        }
+        out = {}
+        for sample in self._reader.read(N=_BATCH):
+            data = getattr(sample, "key_sample", sample)
+            out[tuple(getattr(data, k) for k in keys)] = states.get(
+                sample.sample_info.instance_state, "unknown"
+            )
+        return out
+
+    def close(self) -> None:
+        """Delete the reader. Idempotent."""
+        if self._closed:
+            return
+        self._closed = True
+        for entity in (self._waitset, self._condition, self._reader):
+            _delete(entity)
+
+
+def _delete(entity: Any) -> None:
+    """Delete a Cyclone entity now rather than at garbage collection (idempotent)."""
+    entity.__del__()

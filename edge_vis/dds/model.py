@@ -1,0 +1,475 @@
+"""The edge-vis data model: one DDS topic type per kind of vehicle data. No I/O.
+
+The model follows the UCS-MDE style: one topic per data type, every vehicle-related topic
+keyed by ``vehicle_id`` (the name the vehicle profile gives it), so a DDS reader keeps one
+instance per vehicle. The same model ships as IDL in ``edge_vis/data/edge_vis.idl`` for
+operator stations written in C, C++ or Java; a test checks that the two agree.
+
+Conventions, shared by every type:
+
+* Angles are radians, positions metres, speeds metres per second, latitude and longitude
+  WGS 84 degrees. ``timestamp_ms`` is milliseconds since the Unix epoch (UTC) of the
+  measurement, or 0 when the vehicle did not report one.
+* A ``double`` that the vehicle did not report is NaN; an ``@optional`` member that is
+  absent means "do not change" in commands.
+* Enumerations are carried as IDL enums; as dict values (see :mod:`edge_vis.dds.convert`)
+  they are their literal names (``"READY"``). IDL scopes enumerators at module level, so
+  some carry a prefix (``"MISSION_EXECUTING"``); dicts may leave it out (``"EXECUTING"``).
+
+Members without a default must be present in a sample dict; members with one may be
+omitted.
+
+This module deliberately omits ``from __future__ import annotations``: cyclonedds builds
+its serialisers from the evaluated annotations and cannot resolve postponed ones.
+"""
+
+import math
+from dataclasses import dataclass, field
+from typing import Optional
+
+from cyclonedds.idl import IdlEnum, IdlStruct
+from cyclonedds.idl.annotations import key
+from cyclonedds.idl.types import float64, int32, int64, sequence, uint8, uint16, uint32, uint64
+
+NAN = math.nan
+
+# --------------------------------------------------------------------------- enumerations
+
+
+class VehicleState(IdlEnum, typename="edge_vis::VehicleState"):
+    """Operational state of a vehicle: the JAUS Management states, UNKNOWN before the first
+    status report, OFFLINE once the relay has lost it."""
+
+    UNKNOWN = 0
+    INITIALIZE = 1
+    READY = 2
+    STANDBY = 3
+    SHUTDOWN = 4
+    FAILURE = 5
+    EMERGENCY = 6
+    OFFLINE = 7
+
+
+class ControlState(IdlEnum, typename="edge_vis::ControlState"):
+    """Where the relay stands in JAUS access control of a vehicle."""
+
+    NOT_CONTROLLED = 0
+    REQUESTED = 1
+    CONTROLLED = 2
+    REJECTED = 3
+    RELEASING = 4
+
+
+class ControlAction(IdlEnum, typename="edge_vis::ControlAction"):
+    """What an operator asks for in a :class:`ControlRequest`."""
+
+    REQUEST = 0
+    RELEASE = 1
+
+
+class Frame(IdlEnum, typename="edge_vis::Frame"):
+    """Reference frame of waypoints: WGS 84 (GLOBAL) or the vehicle's local frame (LOCAL)."""
+
+    GLOBAL = 0
+    LOCAL = 1
+
+
+class MissionState(IdlEnum, typename="edge_vis::MissionState"):
+    """Execution state of a waypoint plan."""
+
+    MISSION_IDLE = 0
+    MISSION_PENDING = 1
+    MISSION_EXECUTING = 2
+    MISSION_PAUSED = 3
+    MISSION_COMPLETED = 4
+    MISSION_ABORTED = 5
+    MISSION_FAILED = 6
+
+
+class HealthLevel(IdlEnum, typename="edge_vis::HealthLevel"):
+    """Summary health of a vehicle."""
+
+    HEALTH_UNKNOWN = 0
+    HEALTH_OK = 1
+    HEALTH_WARNING = 2
+    HEALTH_FAULT = 3
+    HEALTH_CRITICAL = 4
+
+
+class TransferState(IdlEnum, typename="edge_vis::TransferState"):
+    """State of a bulk (image) transfer."""
+
+    TRANSFER_PENDING = 0
+    TRANSFER_ACTIVE = 1
+    TRANSFER_PAUSED = 2
+    TRANSFER_COMPLETE = 3
+    TRANSFER_FAILED = 4
+    TRANSFER_CANCELLED = 5
+
+
+# --------------------------------------------------------------------------- nested structs
+
+
+@dataclass
+class ServiceInfo(IdlStruct, typename="edge_vis::ServiceInfo"):
+    """One JAUS service a vehicle reports (``urn:jaus:jss:core:AccessControl``, ``"1.1"``)."""
+
+    uri: str
+    version: str = ""
+
+
+@dataclass
+class Waypoint(IdlStruct, typename="edge_vis::Waypoint"):
+    """A waypoint: latitude/longitude/altitude for GLOBAL plans, x/y/z for LOCAL plans."""
+
+    latitude: float64 = 0.0
+    longitude: float64 = 0.0
+    altitude: float64 = 0.0
+    x: float64 = 0.0
+    y: float64 = 0.0
+    z: float64 = 0.0
+    tolerance: float64 = 0.0
+
+
+@dataclass
+class ClassCount(IdlStruct, typename="edge_vis::ClassCount"):
+    """A counter for one traffic class of a link (``command``, ``telemetry``, ``bulk`` ...)."""
+
+    traffic_class: str
+    count: uint64 = 0
+
+
+@dataclass
+class RangePoint(IdlStruct, typename="edge_vis::RangePoint"):
+    """One range return in the sensor frame: range (m), bearing and inclination (rad)."""
+
+    range: float64
+    bearing: float64
+    inclination: float64 = 0.0
+
+
+@dataclass
+class AtrTarget(IdlStruct, typename="edge_vis::AtrTarget"):
+    """One automatic-target-recognition detection in an image."""
+
+    target_class: str
+    confidence: float64
+    latitude: float64 = NAN
+    longitude: float64 = NAN
+    depth: float64 = NAN
+
+
+# --------------------------------------------------------------------------- identity and state
+
+
+@dataclass
+class VehicleIdentification(IdlStruct, typename="edge_vis::VehicleIdentification"):
+    """Who a vehicle is and which JAUS services it offers."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    name: str = ""
+    jaus_address: str = ""
+    jaus_subsystem: uint16 = 0
+    vehicle_type: str = ""
+    services: sequence[ServiceInfo] = field(default_factory=list)
+
+
+@dataclass
+class VehicleStatus(IdlStruct, typename="edge_vis::VehicleStatus"):
+    """Operational state and liveness of a vehicle as the relay sees it."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    state: VehicleState = VehicleState.UNKNOWN
+    link: str = ""
+    online: bool = False
+    last_seen_ms: int64 = 0
+
+
+@dataclass
+class ControlStatus(IdlStruct, typename="edge_vis::ControlStatus"):
+    """JAUS access control of a vehicle: which operator holds it through the relay."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    state: ControlState = ControlState.NOT_CONTROLLED
+    operator_id: str = ""
+    authority: uint8 = 0
+    rejected_commands: uint32 = 0
+    last_rejection: str = ""
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class MissionStatus(IdlStruct, typename="edge_vis::MissionStatus"):
+    """Progress of the active waypoint plan; ``active_waypoint`` is -1 when none."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    plan_id: str = ""
+    active_waypoint: int32 = -1
+    state: MissionState = MissionState.MISSION_IDLE
+    travel_speed: float64 = 0.0
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class LinkStatus(IdlStruct, typename="edge_vis::LinkStatus"):
+    """Load of one radio link; ``vehicle_id`` is empty for a link shared by many vehicles."""
+
+    link: str
+    key("link")
+    vehicle_id: str = ""
+    key("vehicle_id")
+    up: bool = False
+    budget_bps: float64 = 0.0
+    measured_bps: float64 = 0.0
+    queue_depth: uint32 = 0
+    drops: sequence[ClassCount] = field(default_factory=list)
+    bytes_in: uint64 = 0
+    bytes_out: uint64 = 0
+    messages_in: uint64 = 0
+    messages_out: uint64 = 0
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class HealthStatus(IdlStruct, typename="edge_vis::HealthStatus"):
+    """Summary health: level, battery (percent) and supply voltage (V), active faults."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    level: HealthLevel = HealthLevel.HEALTH_UNKNOWN
+    battery_percent: float64 = NAN
+    supply_voltage: float64 = NAN
+    faults: sequence[str] = field(default_factory=list)
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class SensorInfo(IdlStruct, typename="edge_vis::SensorInfo"):
+    """Static description of one sensor: ranges (m), fields of view (rad), rate (Hz)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    sensor_id: uint16
+    key("sensor_id")
+    name: str = ""
+    kind: str = ""
+    min_range: float64 = 0.0
+    max_range: float64 = 0.0
+    horizontal_fov: float64 = 0.0
+    vertical_fov: float64 = 0.0
+    update_rate_hz: float64 = 0.0
+
+
+@dataclass
+class TransferStatus(IdlStruct, typename="edge_vis::TransferStatus"):
+    """Progress of one bulk transfer; ``rate_bps`` is bits per second."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    transfer_id: str
+    key("transfer_id")
+    image_id: str = ""
+    state: TransferState = TransferState.TRANSFER_PENDING
+    bytes_done: uint64 = 0
+    bytes_total: uint64 = 0
+    rate_bps: float64 = 0.0
+    error: str = ""
+    timestamp_ms: int64 = 0
+
+
+# --------------------------------------------------------------------------- telemetry
+
+
+@dataclass
+class GlobalPose(IdlStruct, typename="edge_vis::GlobalPose"):
+    """WGS 84 position (deg, m above the ellipsoid) and attitude (rad)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    latitude: float64
+    longitude: float64
+    altitude: float64
+    roll: float64
+    pitch: float64
+    yaw: float64
+    timestamp_ms: int64
+
+
+@dataclass
+class LocalPose(IdlStruct, typename="edge_vis::LocalPose"):
+    """Position (m) and attitude (rad) in the vehicle's local frame."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    x: float64
+    y: float64
+    z: float64
+    roll: float64
+    pitch: float64
+    yaw: float64
+    timestamp_ms: int64
+
+
+@dataclass
+class Velocity(IdlStruct, typename="edge_vis::Velocity"):
+    """Linear (m/s) and angular (rad/s) velocity in the vehicle frame."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    vx: float64
+    vy: float64
+    vz: float64
+    roll_rate: float64
+    pitch_rate: float64
+    yaw_rate: float64
+    timestamp_ms: int64
+
+
+@dataclass
+class RangeScan(IdlStruct, typename="edge_vis::RangeScan"):
+    """One scan of a range sensor (laser, sonar)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    sensor_id: uint16
+    key("sensor_id")
+    points: sequence[RangePoint]
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class EnvironmentalData(IdlStruct, typename="edge_vis::EnvironmentalData"):
+    """Water temperature (deg C), salinity (PSU), depth (m), current speed (m/s) and set (rad)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    water_temperature: float64 = NAN
+    salinity: float64 = NAN
+    depth: float64 = NAN
+    current_speed: float64 = NAN
+    current_direction: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
+# --------------------------------------------------------------------------- commands
+
+
+@dataclass
+class ControlRequest(IdlStruct, typename="edge_vis::ControlRequest"):
+    """An operator asks the relay to take (REQUEST) or give up (RELEASE) control of a vehicle."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    action: ControlAction
+    authority: uint8 = 0
+
+
+@dataclass
+class WrenchEffortCommand(IdlStruct, typename="edge_vis::WrenchEffortCommand"):
+    """Open-loop effort in percent: propulsive -100..100, resistive 0..100; absent = unchanged."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    propulsive_linear_x: Optional[float64] = None  # noqa: UP045 (cyclonedds needs Optional)
+    propulsive_linear_y: Optional[float64] = None  # noqa: UP045
+    propulsive_linear_z: Optional[float64] = None  # noqa: UP045
+    propulsive_rotational_x: Optional[float64] = None  # noqa: UP045
+    propulsive_rotational_y: Optional[float64] = None  # noqa: UP045
+    propulsive_rotational_z: Optional[float64] = None  # noqa: UP045
+    resistive_linear_x: Optional[float64] = None  # noqa: UP045
+    resistive_linear_y: Optional[float64] = None  # noqa: UP045
+    resistive_linear_z: Optional[float64] = None  # noqa: UP045
+    resistive_rotational_x: Optional[float64] = None  # noqa: UP045
+    resistive_rotational_y: Optional[float64] = None  # noqa: UP045
+    resistive_rotational_z: Optional[float64] = None  # noqa: UP045
+
+
+@dataclass
+class VelocityCommand(IdlStruct, typename="edge_vis::VelocityCommand"):
+    """Commanded linear (m/s) and angular (rad/s) velocity in the vehicle frame."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    vx: float64 = 0.0
+    vy: float64 = 0.0
+    vz: float64 = 0.0
+    roll_rate: float64 = 0.0
+    pitch_rate: float64 = 0.0
+    yaw_rate: float64 = 0.0
+
+
+@dataclass
+class WaypointPlan(IdlStruct, typename="edge_vis::WaypointPlan"):
+    """A list of waypoints to drive in order at ``speed`` m/s (0 = the vehicle's default)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    plan_id: str
+    waypoints: sequence[Waypoint]
+    frame: Frame = Frame.GLOBAL
+    speed: float64 = 0.0
+
+
+# --------------------------------------------------------------------------- image products
+
+
+@dataclass
+class ImageProduct(IdlStruct, typename="edge_vis::ImageProduct"):
+    """Metadata of one image file a vehicle produced, with its ATR detections."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    image_id: str
+    key("image_id")
+    file_name: str
+    size_bytes: uint64
+    sha256: str
+    transfer_id: str = ""
+    format: str = ""
+    capture_time_ms: int64 = 0
+    targets: sequence[AtrTarget] = field(default_factory=list)
+
+
+@dataclass
+class ImageData(IdlStruct, typename="edge_vis::ImageData"):
+    """One chunk (``chunk_index`` of ``chunk_count``) of an image file's bytes."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    image_id: str
+    key("image_id")
+    chunk_index: uint32
+    chunk_count: uint32
+    data: sequence[uint8]
+
+
+STRUCTS: tuple[type[IdlStruct], ...] = (
+    VehicleIdentification,
+    VehicleStatus,
+    GlobalPose,
+    LocalPose,
+    Velocity,
+    ControlRequest,
+    ControlStatus,
+    WrenchEffortCommand,
+    VelocityCommand,
+    WaypointPlan,
+    MissionStatus,
+    LinkStatus,
+    HealthStatus,
+    RangeScan,
+    SensorInfo,
+    ImageProduct,
+    ImageData,
+    TransferStatus,
+    EnvironmentalData,
+)
+"""Every top-level type of the standard model; each is carried by the topic of its name."""

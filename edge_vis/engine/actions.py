@@ -1,0 +1,89 @@
+"""Actions the engine and translators emit: frozen values, compared with ``==``. No I/O.
+
+The engine never performs anything itself: it returns these from
+:meth:`~edge_vis.engine.engine.Engine.drain_actions` and the runtime carries them out.
+
+* :class:`SendMessage` - encode ``fields`` as message ``name`` through the catalogue and
+  send it to ``destination`` (the router picks the link).
+* :class:`Publish` - write ``sample`` (a dict) to DDS ``topic``.
+* :class:`ShutdownComplete` - every goodbye message has been emitted (and answered, or
+  waited for long enough); the runtime may close links.
+
+Translators return :class:`Publish`, :class:`Command` and :class:`DeclareVehicle`; the
+engine turns a ``Command`` into a ``SendMessage`` only when the operator holds control,
+the vehicle's component is controlled and ready, and the rate and lifespan allow it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, Union
+
+from edge_vis.jaus.address import JausAddress
+
+#: JAUS transport priority values (AS5669A): low, standard, high, safety critical.
+PRIORITY_LOW, PRIORITY_STANDARD, PRIORITY_HIGH, PRIORITY_SAFETY = 0, 1, 2, 3
+
+
+@dataclass(frozen=True, slots=True)
+class SendMessage:
+    """Send JAUS message ``name`` with decoded ``fields`` to ``destination``."""
+
+    destination: JausAddress
+    name: str
+    fields: Mapping[str, Any] = field(default_factory=dict)
+    priority: int = PRIORITY_STANDARD
+
+
+@dataclass(frozen=True, slots=True)
+class Publish:
+    """Write one sample to a DDS topic; the bridge turns the dict into the topic's type."""
+
+    topic: str
+    sample: Mapping[str, Any]
+
+
+@dataclass(frozen=True, slots=True)
+class Command:
+    """A JAUS command a translator wants sent to a vehicle on behalf of an operator.
+
+    ``service`` is the URI of the service that executes it; the engine sends it to the
+    vehicle's component offering that service. ``kind`` groups commands for throttling
+    (latest wins per vehicle and kind). ``stop`` are the fields of the same message that
+    stop the vehicle: when given, the command is a *motion* command: it is refused in
+    EMERGENCY/FAILURE and, when the operator's commands of this kind stop for longer
+    than the dead-man timeout, the engine sends ``stop`` itself.
+    """
+
+    vehicle_id: str
+    operator_id: str
+    kind: str
+    name: str
+    fields: Mapping[str, Any]
+    service: str
+    stop: Mapping[str, Any] | None = None
+    priority: int = PRIORITY_STANDARD
+
+
+@dataclass(frozen=True, slots=True)
+class DeclareVehicle:
+    """Declare a vehicle that does not do standard discovery (e.g. after a custom hello).
+
+    ``components`` maps each component address to its ``(uri, version)`` services.
+    """
+
+    vehicle_id: str
+    components: Mapping[JausAddress, tuple[tuple[str, str], ...]]
+    name: str = ""
+    vehicle_type: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class ShutdownComplete:
+    """The engine has said goodbye to every vehicle; links may close."""
+
+    unanswered: int = 0
+
+
+Action = Union[SendMessage, Publish, Command, DeclareVehicle, ShutdownComplete]  # noqa: UP007

@@ -1,0 +1,128 @@
+"""The translation manager: loads translators and routes messages and samples to them.
+
+Reads package metadata and imports translator plugins when built with
+:meth:`TranslationManager.from_selection`; routing itself does no I/O.
+
+Every translator declares what it consumes and produces (see
+:mod:`edge_vis.translator`). At start-up the manager checks that no JAUS message, no
+published topic and no subscribed topic is claimed twice, and raises
+:class:`~edge_vis.errors.PluginConflictError` naming both claimants otherwise. The engine
+itself owns the ``ControlRequest`` topic (operator arbitration).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+from edge_vis import plugins
+from edge_vis.config import TranslatorSelection
+from edge_vis.engine.actions import Action
+from edge_vis.errors import PluginConflictError, PluginLoadError
+from edge_vis.translator import ReportSpec, Translator, TranslatorContext
+
+log = logging.getLogger(__name__)
+
+ENGINE = "engine"
+#: Topics the engine reads itself.
+ENGINE_SUBSCRIBES = ("ControlRequest",)
+
+
+class TranslationManager:
+    """Routes JAUS messages and DDS samples to the translator that claims them."""
+
+    def __init__(self, translators: Sequence[Translator]) -> None:
+        self.translators = tuple(translators)
+        self.by_message: dict[str, Translator] = {}
+        self.by_topic: dict[str, Translator] = {}
+        self.publishers: dict[str, Translator] = {}
+        claims_message: dict[str, str] = {}
+        claims_sub: dict[str, str] = dict.fromkeys(ENGINE_SUBSCRIBES, ENGINE)
+        claims_pub: dict[str, str] = {}
+        for tr in self.translators:
+            who = _name(tr)
+            for message in tr.messages:
+                _claim(claims_message, message, who, "JAUS message")
+                self.by_message[message] = tr
+            for spec in tr.reports:
+                if spec.report not in tr.messages:
+                    raise PluginLoadError(
+                        f"translator {who!r} wants report {spec.report} but does not list it "
+                        f"in its messages"
+                    )
+            for topic in tr.subscribes:
+                _claim(claims_sub, topic, who, "subscribed topic")
+                self.by_topic[topic] = tr
+            for topic in tr.publishes:
+                _claim(claims_pub, topic, who, "published topic")
+                self.publishers[topic] = tr
+
+    @classmethod
+    def from_selection(cls, selection: TranslatorSelection,
+                       options: Mapping[str, Any] | None = None) -> TranslationManager:
+        """Load the installed translators that ``selection`` enables, sorted by name."""
+        names = sorted(plugins.available(plugins.TRANSLATORS))
+        for wanted in selection.enabled:
+            if wanted != "*" and wanted not in names:
+                # load() raises PluginNotFoundError listing what is installed
+                plugins.load(plugins.TRANSLATORS, wanted, Translator)
+        loaded: list[Translator] = []
+        for name in names:
+            if not selection.selects(name):
+                log.info("translator %s disabled by profile", name)
+                continue
+            cls_ = plugins.load(plugins.TRANSLATORS, name, Translator)
+            instance = cls_() if isinstance(cls_, type) else cls_
+            if not instance.name:
+                instance.name = name
+            loaded.append(instance)
+        return cls(loaded)
+
+    # -- routing -----------------------------------------------------------------------
+
+    def wanted_reports(self) -> list[tuple[Translator, ReportSpec]]:
+        """Every report some translator wants, with its translator."""
+        return [(tr, spec) for tr in self.translators for spec in tr.reports]
+
+    def controlled_services(self) -> frozenset[str]:
+        """Service URIs some translator commands."""
+        return frozenset(uri for tr in self.translators for uri in tr.controlled_services)
+
+    def handles(self, name: str) -> bool:
+        """True when a translator consumes JAUS message ``name``."""
+        return name in self.by_message
+
+    def on_message(self, name: str, fields: Mapping[str, Any],
+                   ctx: TranslatorContext) -> list[Action]:
+        """Give a JAUS message to the translator that claims it."""
+        tr = self.by_message.get(name)
+        return list(tr.on_message(name, fields, ctx)) if tr is not None else []
+
+    def on_sample(self, topic: str, sample: Mapping[str, Any],
+                  ctx: TranslatorContext) -> list[Action]:
+        """Give a DDS sample to the translator that subscribes to its topic."""
+        tr = self.by_topic.get(topic)
+        return list(tr.on_sample(topic, sample, ctx)) if tr is not None else []
+
+    def on_vehicle(self, change: str, ctx: TranslatorContext) -> list[Action]:
+        """Tell every translator that the vehicle in ``ctx`` changed."""
+        out: list[Action] = []
+        for tr in self.translators:
+            out.extend(tr.on_vehicle(change, ctx))
+        return out
+
+    def topics(self) -> tuple[Iterable[str], Iterable[str]]:
+        """(published topics, subscribed topics) for the DDS bridge to create."""
+        return tuple(self.publishers), (*ENGINE_SUBSCRIBES, *self.by_topic)
+
+
+def _name(tr: Translator) -> str:
+    return tr.name or type(tr).__name__
+
+
+def _claim(claims: dict[str, str], key: str, who: str, what: str) -> None:
+    other = claims.get(key)
+    if other is not None and other != who:
+        raise PluginConflictError(f"{what} {key!r} is claimed by both {other!r} and {who!r}")
+    claims[key] = who

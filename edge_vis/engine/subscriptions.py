@@ -1,0 +1,234 @@
+"""JAUS event subscriptions for one report from one component. No I/O, explicit ``now``.
+
+Theory of operation
+-------------------
+For each report a translator wants, the engine asks the providing component for a JAUS
+*event* (AS5710 Events service): CreateEvent carrying the complete query message, the
+event type and the rate. The provider answers ConfirmEventRequest (with the event ID it
+chose) or RejectEventRequest, then sends Event messages wrapping the report.
+
+Rule 1: an event is identified by (provider, event ID, report name), never by the event ID
+alone: JAUS++ hands out the same event ID for different report types.
+
+Rule 2: events time out (core v1.1). The provider's timeout is asked once per provider
+(QueryEventTimeout) and the event is refreshed at half of it by re-sending the same
+CreateEvent, which providers treat as an update of the existing event. Providers that do
+not answer are refreshed every ``default_refresh``.
+
+Rule 3: if the provider rejects the event, or leaves ``attempts`` requests unanswered (the
+JTS example ignores CreateEvent), the report is *polled*: the query is sent at the rate.
+
+Rule 4: when interest ends (relay stopping), CancelEvent with the event ID.
+
+=============  ======================================  ============  ======================
+state          input                                   new state     output
+=============  ======================================  ============  ======================
+NEW            start                                   CREATING      CreateEvent
+CREATING       ConfirmEventRequest(request id)         ACTIVE        -
+CREATING       RejectEventRequest / attempts exhausted POLLING       query at the rate
+CREATING       no answer (response_timeout)            CREATING      CreateEvent (again)
+ACTIVE         refresh due                             ACTIVE        CreateEvent
+POLLING        period elapsed                          POLLING       query
+ACTIVE         cancel                                  CANCELLING    CancelEvent
+CANCELLING     ConfirmEventRequest / timeout           DONE          -
+any            vehicle lost                            NEW           -
+=============  ======================================  ============  ======================
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from edge_vis.config import EventsProfile
+from edge_vis.jaus.address import JausAddress
+
+
+class SubscriptionState(enum.Enum):
+    """Life cycle of one subscription."""
+
+    NEW = "new"
+    CREATING = "creating"
+    ACTIVE = "active"
+    POLLING = "polling"
+    CANCELLING = "cancelling"
+    DONE = "done"
+
+
+@dataclass(frozen=True, slots=True)
+class Request:
+    """A message this subscription wants sent to its provider."""
+
+    name: str
+    fields: Mapping[str, Any]
+
+
+class Subscription:
+    """One wanted report from one provider component (see module docstring).
+
+    ``encode_query`` turns (query name, fields) into the complete query payload bytes that
+    CreateEvent carries; ``next_request_id`` hands out the vehicle's request IDs (u8).
+    """
+
+    def __init__(
+        self,
+        provider: JausAddress,
+        report: str,
+        query: str,
+        query_fields: Mapping[str, Any],
+        rate: float,
+        on_change: bool,
+        profile: EventsProfile,
+        encode_query: Callable[[str, Mapping[str, Any]], bytes],
+        next_request_id: Callable[[], int],
+    ) -> None:
+        self.provider = provider
+        self.report = report
+        self.query = query
+        self.query_fields = dict(query_fields)
+        self.rate = rate
+        self.on_change = on_change
+        self.profile = profile
+        self._encode_query = encode_query
+        self._next_request_id = next_request_id
+        self.state = SubscriptionState.NEW
+        self.event_id: int | None = None
+        self.request_id: int | None = None
+        self.confirmed_rate: float | None = None
+        self.attempts = 0
+        self.deadline: float | None = None
+        self.refresh_period: float = profile.default_refresh
+        self.events_received = 0
+        self.last_sequence: int | None = None
+        self.last_event: float | None = None
+        self.reason = ""
+        #: a CancelEvent that timed out
+        self.unanswered = False
+
+    # -- queries -----------------------------------------------------------------------
+
+    def next_deadline(self) -> float | None:
+        """Earliest time :meth:`poll` has something to do."""
+        return self.deadline
+
+    def matches_event(self, event_id: int, report: str) -> bool:
+        """True when an Event(event_id) carrying ``report`` belongs to this subscription."""
+        return (
+            self.state in (SubscriptionState.ACTIVE, SubscriptionState.CANCELLING)
+            and self.event_id == event_id
+            and self.report == report
+        )
+
+    # -- inputs ------------------------------------------------------------------------
+
+    def start(self, now: float) -> list[Request]:
+        """Begin (or, after a loss, begin again)."""
+        self.attempts = 0
+        return self._create(now)
+
+    def on_confirm(self, event_id: int, rate: float, now: float) -> list[Request]:
+        """ConfirmEventRequest for our current request ID."""
+        self.request_id = None
+        if self.state is SubscriptionState.CANCELLING:
+            self._done()
+            return []
+        self.state = SubscriptionState.ACTIVE
+        self.event_id = event_id
+        self.confirmed_rate = rate
+        self.attempts = 0
+        self.deadline = now + self.refresh_period
+        return []
+
+    def on_reject(self, code: int | None, now: float) -> list[Request]:
+        """RejectEventRequest for our current request ID: poll instead."""
+        self.request_id = None
+        if self.state is SubscriptionState.CANCELLING:
+            self._done()
+            return []
+        self.reason = f"event rejected (response code {code})"
+        return self._start_polling(now)
+
+    def on_event(self, sequence: int, now: float) -> None:
+        """An Event of this subscription arrived (bursts and repeats are harmless)."""
+        self.events_received += 1
+        self.last_sequence = sequence
+        self.last_event = now
+
+    def set_event_timeout(self, minutes: int, now: float) -> None:
+        """ReportEventTimeout from the provider: refresh at half of it (0 = never)."""
+        self.refresh_period = minutes * 60.0 / 2.0 if minutes else float("inf")
+        if self.state is SubscriptionState.ACTIVE:
+            self.deadline = (now + self.refresh_period if minutes else None)
+
+    def cancel(self, now: float) -> list[Request]:
+        """Interest ended: cancel an active event, stop polling."""
+        if self.state is SubscriptionState.ACTIVE and self.event_id is not None:
+            self.state = SubscriptionState.CANCELLING
+            self.request_id = self._next_request_id()
+            self.deadline = now + self.profile.response_timeout
+            return [Request("CancelEvent", {"request_id": self.request_id,
+                                            "event_id": self.event_id})]
+        self._done()
+        return []
+
+    def on_lost(self) -> None:
+        """The provider went silent: its events are gone; start over when it returns."""
+        self.state = SubscriptionState.NEW
+        self.event_id = None
+        self.request_id = None
+        self.deadline = None
+
+    def poll(self, now: float) -> list[Request]:
+        """Do whatever is due at ``now``."""
+        if self.deadline is None or now < self.deadline:
+            return []
+        self.deadline = None
+        if self.state is SubscriptionState.CREATING:
+            if self.attempts >= max(self.profile.attempts, 1):
+                self.reason = f"no answer to {self.attempts} CreateEvent requests"
+                self.request_id = None
+                return self._start_polling(now)
+            return self._create(now)
+        if self.state is SubscriptionState.ACTIVE:
+            self.attempts = 0
+            return self._create(now, refresh=True)
+        if self.state is SubscriptionState.POLLING:
+            self.deadline = now + self._period()
+            return [Request(self.query, self.query_fields)]
+        if self.state is SubscriptionState.CANCELLING:
+            self.unanswered = True
+            self._done()
+        return []
+
+    # -- internals ---------------------------------------------------------------------
+
+    def _period(self) -> float:
+        return 1.0 / self.rate if self.rate > 0 else 1.0
+
+    def _create(self, now: float, refresh: bool = False) -> list[Request]:
+        if not refresh:
+            self.state = SubscriptionState.CREATING
+        self.attempts += 1
+        self.request_id = self._next_request_id()
+        self.deadline = now + (self.profile.response_timeout if not refresh
+                               else self.refresh_period)
+        fields = {
+            "request_id": self.request_id,
+            "event_type": 1 if self.on_change else 0,
+            "requested_periodic_rate": 0.0 if self.on_change else self.rate,
+            "query_message": self._encode_query(self.query, self.query_fields),
+        }
+        return [Request("CreateEvent", fields)]
+
+    def _start_polling(self, now: float) -> list[Request]:
+        self.state = SubscriptionState.POLLING
+        self.event_id = None
+        self.deadline = now + self._period()
+        return [Request(self.query, self.query_fields)]
+
+    def _done(self) -> None:
+        self.state = SubscriptionState.DONE
+        self.deadline = None
+        self.request_id = None

@@ -1,0 +1,95 @@
+"""Per-vehicle state shared by every translator: tree, liveness, control, events, commands.
+
+No I/O. One :class:`Vehicle` per JAUS subsystem lives in the engine; translators only see
+a read-only :class:`~edge_vis.translator.VehicleView` of it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from edge_vis.config import VehicleProfile
+from edge_vis.engine.arbitration import Arbitration
+from edge_vis.engine.commands import CommandSlot
+from edge_vis.engine.control import ComponentControl
+from edge_vis.engine.discovery import Service, with_inherited
+from edge_vis.engine.subscriptions import Subscription
+from edge_vis.jaus.address import JausAddress
+from edge_vis.translator import STATUS_NAMES
+
+#: Most severe first: the vehicle's state is the most severe of its components'.
+_SEVERITY = (5, 4, 3, 0, 2, 1)
+
+
+@dataclass
+class Vehicle:
+    """Everything the engine knows and keeps about one subsystem."""
+
+    subsystem: int
+    vehicle_id: str
+    profile: VehicleProfile | None = None
+    name: str = ""
+    vehicle_type: str = ""
+    #: the component that answered identification (usually the discovery component)
+    address: JausAddress | None = None
+    static: bool = False
+    #: component -> services as reported (plus inherited ones)
+    components: dict[JausAddress, tuple[Service, ...]] = field(default_factory=dict)
+    configuration: list[JausAddress] = field(default_factory=list)
+    services_known: bool = False
+    services_attempts: int = 0
+    next_services_query: float | None = None
+    online: bool = False
+    last_seen: float | None = None
+    next_liveness: float | None = None
+    statuses: dict[JausAddress, int] = field(default_factory=dict)
+    controls: dict[JausAddress, ComponentControl] = field(default_factory=dict)
+    subscriptions: dict[tuple[JausAddress, str], Subscription] = field(default_factory=dict)
+    commands: dict[str, CommandSlot] = field(default_factory=dict)
+    arbitration: Arbitration = field(default_factory=Arbitration)
+    event_timeout_asked: set[JausAddress] = field(default_factory=set)
+    request_counter: int = 0
+    times_lost: int = 0
+
+    def next_request_id(self) -> int:
+        """A fresh CreateEvent/CancelEvent request ID (u8, wraps)."""
+        self.request_counter = (self.request_counter + 1) % 256
+        return self.request_counter
+
+    def set_services(self, address: JausAddress, services: list[Service]) -> bool:
+        """Record ``address``'s services; True when something changed."""
+        merged = with_inherited([*self.components.get(address, ()), *services])
+        changed = self.components.get(address) != merged
+        self.components[address] = merged
+        return changed
+
+    def providers(self, uri: str) -> list[JausAddress]:
+        """Components offering service ``uri`` (listed or inherited), lowest address first."""
+        return sorted(a for a, services in self.components.items()
+                      if any(u == uri for u, _ in services))
+
+    def offers(self, address: JausAddress, uri: str) -> bool:
+        """True when component ``address`` offers ``uri``."""
+        return any(u == uri for u, _ in self.components.get(address, ()))
+
+    def all_services(self) -> tuple[Service, ...]:
+        """Distinct services over all components."""
+        seen: dict[str, str] = {}
+        for services in self.components.values():
+            for uri, version in services:
+                seen.setdefault(uri, version)
+        return tuple(sorted(seen.items()))
+
+    def state_name(self) -> str:
+        """OFFLINE, the most severe component status, or UNKNOWN."""
+        if not self.online:
+            return "OFFLINE"
+        present = set(self.statuses.values())
+        for code in _SEVERITY:
+            if code in present:
+                return STATUS_NAMES[code]
+        return "UNKNOWN"
+
+    def in_emergency(self) -> bool:
+        """True when any component reports EMERGENCY or FAILURE."""
+        return any(s in (4, 5) for s in self.statuses.values())

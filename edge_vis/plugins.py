@@ -1,0 +1,188 @@
+"""Finding and loading plugins through entry points. Reads package metadata and imports
+plugin modules; no other I/O.
+
+Links, translators and message sets are separate distributions (or the ``links`` and
+``translators`` packages shipped beside the core) that declare entry points in one of
+:data:`GROUPS`. The core names a plugin only by group and entry-point name, so it never
+imports a plugin package by name, and a user adds one by installing it, not by editing
+edge-vis.
+
+* :func:`available` lists a group from metadata alone: nothing is imported, so listing
+  never fails because one plugin is broken.
+* :func:`load` imports one plugin on demand. A missing name raises
+  :class:`~edge_vis.errors.PluginNotFoundError` listing the names that do exist; an
+  import that fails, or an object of the wrong kind, raises
+  :class:`~edge_vis.errors.PluginLoadError` naming the plugin, chained to the cause.
+* :func:`register` adds a plugin from inside the process (tests, embedding); it is loaded
+  and validated by the same code as an installed one.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from importlib import metadata
+from typing import Any
+
+from edge_vis.errors import PluginConflictError, PluginLoadError, PluginNotFoundError
+
+log = logging.getLogger(__name__)
+
+LINKS = "edge_vis.links"
+TRANSLATORS = "edge_vis.translators"
+MESSAGES = "edge_vis.messages"
+GROUPS: tuple[str, ...] = (LINKS, TRANSLATORS, MESSAGES)
+
+#: Distribution shown for plugins added with :func:`register`.
+REGISTERED = "(registered)"
+
+_INSTALL_HINT = "is edge-vis installed (pip install -e .)?"
+
+# group -> name -> an EntryPoint (lazy target) or the plugin object itself
+_registry: dict[str, dict[str, Any]] = {}
+
+
+@dataclass(frozen=True)
+class PluginEntry:
+    """One plugin as declared, before anything is imported."""
+
+    group: str
+    name: str
+    target: str
+    """``module:attribute`` for entry points, ``module:qualname`` for registered objects."""
+    distribution: str
+    version: str = ""
+
+
+def _dist_of(ep: metadata.EntryPoint) -> tuple[str, str]:
+    dist = getattr(ep, "dist", None)
+    if dist is None:
+        return "", ""
+    try:
+        return dist.metadata["Name"] or "", dist.version or ""
+    except Exception:  # broken metadata must not hide the other plugins
+        return "", ""
+
+
+def _installed(group: str) -> dict[str, list[tuple[metadata.EntryPoint, str, str]]]:
+    """Entry points of ``group`` by name; the same target seen twice is kept once.
+
+    The same distribution can appear twice on ``sys.path`` (an editable install and a
+    stray ``*.egg-info`` in the working directory), so duplicates are folded by
+    (distribution, target); two *different* targets under one name are kept, for
+    :func:`load` to report as a conflict.
+    """
+    found: dict[str, list[tuple[metadata.EntryPoint, str, str]]] = {}
+    for ep in metadata.entry_points(group=group):
+        dist, version = _dist_of(ep)
+        claims = found.setdefault(ep.name, [])
+        if any(d == dist and e.value == ep.value for e, d, _ in claims):
+            continue
+        claims.append((ep, dist, version))
+    return found
+
+
+def _describe(obj: Any) -> str:
+    if isinstance(obj, metadata.EntryPoint):
+        return obj.value
+    module = getattr(obj, "__module__", None) or type(obj).__module__
+    qualname = getattr(obj, "__qualname__", None) or type(obj).__qualname__
+    return f"{module}:{qualname}"
+
+
+def entries(group: str) -> list[PluginEntry]:
+    """Every plugin declared in ``group``, sorted by name, without importing any.
+
+    A registered plugin hides an installed one of the same name, as :func:`load` does.
+    """
+    result: dict[str, PluginEntry] = {}
+    for name, claims in _installed(group).items():
+        ep, dist, version = claims[0]
+        result[name] = PluginEntry(group, name, ep.value, dist, version)
+        for other, other_dist, _ in claims[1:]:
+            log.warning(
+                "plugin %r in %s is declared twice: %s (%s) and %s (%s)",
+                name, group, ep.value, dist or "?", other.value, other_dist or "?",
+            )
+    for name, obj in _registry.get(group, {}).items():
+        result[name] = PluginEntry(group, name, _describe(obj), REGISTERED)
+    return [result[name] for name in sorted(result)]
+
+
+def available(group: str) -> dict[str, tuple[str, str]]:
+    """``{name: (target, distribution)}`` for every plugin in ``group``; imports nothing."""
+    return {e.name: (e.target, e.distribution) for e in entries(group)}
+
+
+def register(group: str, name: str, obj: Any) -> None:
+    """Add a plugin from inside the process, ahead of any installed one of that name.
+
+    ``obj`` is the plugin itself, or a ``"module:attribute"`` string imported lazily on
+    first :func:`load`, exactly like an installed entry point.
+    """
+    if isinstance(obj, str):
+        obj = metadata.EntryPoint(name=name, value=obj, group=group)
+    _registry.setdefault(group, {})[name] = obj
+
+
+def unregister(group: str, name: str) -> None:
+    """Remove a plugin added with :func:`register`; absent names are ignored."""
+    _registry.get(group, {}).pop(name, None)
+
+
+def load(group: str, name: str, expected_type: type | None = None) -> Any:
+    """Import and return plugin ``name`` of ``group``.
+
+    With ``expected_type``, the plugin must be a subclass of it (when it is a class) or an
+    instance of it; otherwise :class:`PluginLoadError` is raised, so a wrong entry point
+    fails at start-up with the plugin's name rather than later inside the relay.
+    """
+    registered = _registry.get(group, {})
+    if name in registered:
+        target = registered[name]
+    else:
+        claims = _installed(group).get(name, [])
+        if not claims:
+            raise PluginNotFoundError(_not_found_message(group, name))
+        if len(claims) > 1:
+            who = ", ".join(f"{ep.value} from {dist or '?'}" for ep, dist, _ in claims)
+            raise PluginConflictError(f"plugin {name!r} in {group} is declared twice: {who}")
+        target = claims[0][0]
+    obj = target
+    if isinstance(target, metadata.EntryPoint):
+        try:
+            obj = target.load()
+        except Exception as exc:
+            raise _load_error(
+                group, name, exc, f"cannot import {target.value}: {type(exc).__name__}: {exc}"
+            ) from exc
+    if expected_type is not None and not _conforms(obj, expected_type):
+        kind = f"class {obj.__qualname__}" if isinstance(obj, type) else type(obj).__name__
+        raise _load_error(
+            group, name, None,
+            f"{_describe(target)} is a {kind}, not a {expected_type.__qualname__}",
+        )
+    return obj
+
+
+def _conforms(obj: Any, expected: type) -> bool:
+    try:
+        if isinstance(obj, type):
+            return issubclass(obj, expected)
+        return isinstance(obj, expected)
+    except TypeError:  # e.g. a typing.Protocol that is not runtime-checkable
+        return False
+
+
+def _load_error(group: str, name: str, cause: BaseException | None, detail: str) -> PluginLoadError:
+    err = PluginLoadError(f"plugin {name!r} in {group}: {detail}")
+    err.plugin = name  # type: ignore[attr-defined]
+    err.group = group  # type: ignore[attr-defined]
+    err.cause = cause  # type: ignore[attr-defined]
+    return err
+
+
+def _not_found_message(group: str, name: str) -> str:
+    names = sorted({*_installed(group), *_registry.get(group, {})})
+    have = ", ".join(names) if names else "none"
+    return f"no plugin {name!r} in {group} (installed: {have}); {_INSTALL_HINT}"

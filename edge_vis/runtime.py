@@ -1,0 +1,422 @@
+"""The asyncio shell of the relay: the only place where links, DDS, the clock and the
+sans-I/O core meet. Performs I/O.
+
+One event loop drives everything::
+
+    link deliver(name, peer, packets) ─► Router.receive ─► SendPackets ─► Link.send
+                                                        └► Deliver ─► Catalogue.decode
+                                                                       ─► Engine.receive_message
+    DDS sample (bridge thread → loop)  ─────────────────────────────► Engine.receive_sample
+    timer at min(router, engine deadlines) ─► Router.on_timer / Engine.on_timer
+    Engine actions: SendMessage ─► Catalogue.encode ─► Router.send ─► Link.send
+                    Publish     ─► DdsBridge.publish
+
+Every input is handled to completion (router, engine, actions) before the next one, so
+the core never sees concurrency. Bad bytes are counted and logged (rate-limited), never
+raised; a failing link is reported and the relay keeps running.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import socket
+import time
+from collections import Counter
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, BinaryIO
+
+from edge_vis import plugins
+from edge_vis.catalogue import Catalogue, default_catalogue
+from edge_vis.config import RelayProfile
+from edge_vis.engine.actions import Publish, SendMessage, ShutdownComplete
+from edge_vis.engine.engine import Engine
+from edge_vis.errors import CodecError, EdgeVisError
+from edge_vis.jaus.transport import Broadcast, Packet, pack_datagram
+from edge_vis.link import Link, LinkUrl, Peer
+from edge_vis.pcap import PcapWriter, UdpDatagram
+from edge_vis.router import Deliver, DeliveryFailed, Router, SendPackets
+
+log = logging.getLogger(__name__)
+
+#: how often LinkStatus samples are published (seconds)
+LINK_STATUS_PERIOD = 1.0
+#: at most this many log lines per reason and minute for bad input from the network
+_LOG_BURST = 5
+
+
+@dataclass(frozen=True, slots=True)
+class MirrorOptions:
+    """Copy every JAUS datagram seen on any link to a UDP port and/or a pcap file."""
+
+    udp: tuple[str, int] | None = None
+    pcap: Path | None = None
+
+
+class _RateLimitedLog:
+    def __init__(self) -> None:
+        self._window: dict[str, tuple[float, int]] = {}
+
+    def warning(self, reason: str, now: float, msg: str, *args: object) -> None:
+        start, count = self._window.get(reason, (now, 0))
+        if now - start > 60.0:
+            start, count = now, 0
+        if count < _LOG_BURST:
+            log.warning(msg, *args)
+        elif count == _LOG_BURST:
+            log.warning("%s: further messages of this kind suppressed for a minute", reason)
+        self._window[reason] = (start, count + 1)
+
+
+class Runtime:
+    """Run one relay: links + router + engine + DDS, from a :class:`RelayProfile`.
+
+    ``publisher_factory`` builds the DDS side once the loop runs (default: a
+    :class:`~edge_vis.dds.bridge.DdsBridge` on the profile's domain and partitions);
+    pass ``None`` for a JAUS-only relay. Use as::
+
+        runtime = Runtime(profile)
+        await runtime.start()
+        await runtime.wait_stopped()    # until request_stop() (signal handler)
+    """
+
+    def __init__(
+        self,
+        profile: RelayProfile,
+        *,
+        catalogue: Catalogue | None = None,
+        publisher_factory: Callable[[Runtime], Any] | str | None = "dds",
+        mirror: MirrorOptions | None = None,
+        shutdown_timeout: float = 3.0,
+    ) -> None:
+        self.profile = profile
+        self.catalogue = catalogue or _catalogue_for(profile)
+        self.router = Router([profile.jaus_id])
+        self.engine: Engine | None = None
+        self.links: dict[str, Link] = {}
+        self.counters: Counter[str] = Counter()
+        self._publisher_factory = publisher_factory
+        self.publisher: Any = None
+        self._mirror = mirror or MirrorOptions()
+        self._mirror_sock: socket.socket | None = None
+        self._mirror_file: BinaryIO | None = None
+        self._mirror_pcap: PcapWriter | None = None
+        self._shutdown_timeout = shutdown_timeout
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._timer: asyncio.TimerHandle | None = None
+        self._timer_at: float | None = None
+        self._stopped: asyncio.Event | None = None
+        self._shutdown_done: asyncio.Event | None = None
+        self._status_task: asyncio.Task[None] | None = None
+        self._log = _RateLimitedLog()
+        self.first_discovery_at: float | None = None
+
+    # -- life cycle ------------------------------------------------------------------------
+    async def start(self) -> None:
+        """Open links and DDS, start the engine; raises EdgeVisError on a bad set-up."""
+        loop = self._loop = asyncio.get_running_loop()
+        self._stopped = asyncio.Event()
+        self._shutdown_done = asyncio.Event()
+        self.engine = Engine(
+            self.profile, catalogue=self.catalogue, wall_offset=time.time() - loop.time()
+        )
+        if self._publisher_factory == "dds":
+            self.publisher = self._open_dds()
+        elif callable(self._publisher_factory):
+            self.publisher = self._publisher_factory(self)
+        self._open_mirror()
+        for link_profile in self.profile.links:
+            await self._open_link(link_profile.name, link_profile.url, link_profile.bandwidth)
+        log.info(
+            "relay %s (%s) running: links %s, translators %s",
+            self.profile.jaus_id, self.profile.name, ", ".join(self.links) or "none",
+            ", ".join(t.name for t in self.engine.manager.translators) or "none",
+        )
+        self._pump_engine(loop.time())
+        self._status_task = loop.create_task(self._publish_link_status())
+
+    async def _open_link(self, name: str, url: str, bandwidth: int) -> None:
+        parsed = LinkUrl.parse(url)
+        cls = plugins.load(plugins.LINKS, parsed.scheme)
+        options = dict(parsed.options)
+        if bandwidth and "bandwidth" not in options:
+            url = url + ("&" if "?" in url else "?") + f"bandwidth={bandwidth}"
+        link: Link = cls(url, name=name)
+        if self._mirror_sock is not None or self._mirror_pcap is not None:
+            link.add_tap(self._tap)
+        await link.open(self._on_packets, self._on_link_state)
+        self.links[name] = link
+        self.router.add_link(name, mtu=link.mtu, bandwidth_bps=link.bandwidth_bps)
+        log.info("link %s open: %s (mtu %d)", name, url, link.mtu)
+
+    def _open_dds(self) -> Any:
+        from edge_vis.dds.bridge import DdsBridge  # imported lazily: cyclonedds is optional
+
+        assert self.engine is not None
+        bridge = DdsBridge(self.profile.dds.domain, self.profile.dds.partitions)
+        published, subscribed = self.engine.manager.topics()
+        bridge.open_writers([*published, "LinkStatus"])
+        subscribed = [t for t in dict.fromkeys(subscribed)]
+        if subscribed:
+            bridge.subscribe(subscribed, self._on_sample, loop=self._loop)
+        log.info("DDS domain %d, partitions %s: publishing %s; subscribed to %s",
+                 self.profile.dds.domain, list(self.profile.dds.partitions) or ["(default)"],
+                 ", ".join(published), ", ".join(subscribed))
+        return bridge
+
+    def request_stop(self) -> None:
+        """Ask the relay to stop (signal handlers call this)."""
+        if self._stopped is not None and not self._stopped.is_set():
+            log.info("stopping: cancelling events and releasing control")
+            self._stopped.set()
+
+    async def wait_stopped(self) -> None:
+        """Run until :meth:`request_stop`, then shut down cleanly."""
+        assert self._stopped is not None
+        await self._stopped.wait()
+        await self.stop()
+
+    async def stop(self) -> None:
+        """Cancel events, release control, wait for the goodbyes (bounded), close all."""
+        loop = asyncio.get_running_loop()
+        engine = self.engine
+        if engine is not None and not engine.is_shut_down:
+            engine.shutdown(loop.time())
+            self._pump_engine(loop.time())
+            assert self._shutdown_done is not None
+            try:
+                await asyncio.wait_for(self._shutdown_done.wait(), self._shutdown_timeout)
+            except TimeoutError:
+                log.warning("shutdown: vehicles did not answer within %.1f s",
+                            self._shutdown_timeout)
+            # let the last queued packets leave
+            self._on_timer()
+            await asyncio.sleep(0.05)
+        if self._status_task is not None:
+            self._status_task.cancel()
+        if self._timer is not None:
+            self._timer.cancel()
+        for link in self.links.values():
+            await link.close()
+        if self.publisher is not None:
+            self.publisher.close()
+            self.publisher = None
+        if self._mirror_sock is not None:
+            self._mirror_sock.close()
+        if self._mirror_file is not None:
+            self._mirror_file.close()
+        log.info("stopped")
+
+    # -- inputs ------------------------------------------------------------------------------
+    def _on_packets(self, link: str, peer: Peer, packets: list[Packet]) -> None:
+        assert self._loop is not None
+        now = self._loop.time()
+        try:
+            actions = self.router.receive(link, peer, packets, now)
+        except EdgeVisError as exc:  # a router refusal is about this input only
+            self.counters["router errors"] += 1
+            self._log.warning("router", now, "router refused packets from %s: %s", link, exc)
+            return
+        self._carry_router(actions, now)
+        self._pump_engine(now)
+
+    def _on_sample(self, topic: str, sample: dict[str, Any]) -> None:
+        assert self._loop is not None and self.engine is not None
+        now = self._loop.time()
+        self.counters["samples in"] += 1
+        self.engine.receive_sample(topic, sample, now)
+        self._pump_engine(now)
+
+    def _on_link_state(self, link: str, state: str, reason: str) -> None:
+        if state == "down":
+            log.warning("link %s down: %s", link, reason)
+        else:
+            log.info("link %s %s%s", link, state, f": {reason}" if reason else "")
+
+    def _on_timer(self) -> None:
+        assert self._loop is not None
+        self._timer = None
+        self._timer_at = None
+        now = self._loop.time()
+        self._carry_router(self.router.on_timer(now), now)
+        if self.engine is not None:
+            self.engine.on_timer(now)
+        self._pump_engine(now)
+
+    # -- outputs -----------------------------------------------------------------------------
+    def _carry_router(self, actions: Iterable[object], now: float) -> None:
+        engine = self.engine
+        for action in actions:
+            if isinstance(action, SendPackets):
+                link = self.links.get(action.link)
+                if link is None:
+                    self.counters["send to unknown link"] += 1
+                    continue
+                link.send(list(action.packets), action.peer)
+            elif isinstance(action, Deliver):
+                packet = action.packet
+                if packet.message_code is None:
+                    continue
+                try:
+                    message = self.catalogue.decode(packet.payload)
+                except CodecError as exc:
+                    self.counters["undecodable messages"] += 1
+                    self._log.warning("decode", now, "undecodable message from %s: %s",
+                                      packet.source, exc)
+                    continue
+                if engine is not None:
+                    if self.first_discovery_at is None and message.name == "ReportIdentification":
+                        self.first_discovery_at = now
+                    engine.receive_message(packet.source, message, now)
+            elif isinstance(action, DeliveryFailed):
+                self.counters["delivery failed"] += 1
+                log.debug("no acknowledgement from %s: %s", action.packet.destination,
+                          action.reason)
+
+    def _pump_engine(self, now: float) -> None:
+        engine = self.engine
+        if engine is None:
+            return
+        for _ in range(8):  # engine actions may produce more actions; bounded
+            actions = engine.drain_actions()
+            if not actions:
+                break
+            for action in actions:
+                if isinstance(action, SendMessage):
+                    self._send(action, now)
+                elif isinstance(action, Publish):
+                    self._publish(action.topic, action.sample)
+                elif isinstance(action, ShutdownComplete) and self._shutdown_done is not None:
+                    self._shutdown_done.set()
+        self._rearm(now)
+
+    def _send(self, action: SendMessage, now: float) -> None:
+        try:
+            payload = self.catalogue.encode(action.name, action.fields)
+        except EdgeVisError as exc:
+            self.counters["encode errors"] += 1
+            log.error("cannot encode %s for %s: %s", action.name, action.destination, exc)
+            return
+        destination = action.destination
+        packet = Packet(
+            destination, self.profile.jaus_id, payload, priority=action.priority,
+            broadcast=Broadcast.GLOBAL if destination.is_broadcast else Broadcast.NONE,
+        )
+        try:
+            self._carry_router(self.router.send(packet, now), now)
+        except EdgeVisError as exc:
+            self.counters["send errors"] += 1
+            self._log.warning("send", now, "cannot send %s to %s: %s", action.name,
+                              destination, exc)
+        self.counters["messages sent"] += 1
+
+    def _publish(self, topic: str, sample: Mapping[str, Any]) -> None:
+        self.counters["samples out"] += 1
+        if self.publisher is None:
+            return
+        try:
+            self.publisher.publish(topic, sample)
+        except (EdgeVisError, ValueError, KeyError, TypeError) as exc:
+            self.counters["publish errors"] += 1
+            log.error("cannot publish %s: %s", topic, exc)
+
+    def _rearm(self, now: float) -> None:
+        assert self._loop is not None
+        deadlines = [d for d in (self.router.next_deadline(),
+                                 self.engine.next_deadline() if self.engine else None)
+                     if d is not None]
+        if not deadlines:
+            return
+        when = max(min(deadlines), now)
+        if self._timer_at is not None and self._timer_at <= when:
+            return
+        if self._timer is not None:
+            self._timer.cancel()
+        self._timer_at = when
+        self._timer = self._loop.call_at(when, self._on_timer)
+
+    # -- health and mirror ----------------------------------------------------------------------
+    def link_status(self) -> list[dict[str, Any]]:
+        """One ``LinkStatus`` sample per link."""
+        queues = self.router.stats().links
+        samples = []
+        wall_ms = int(time.time() * 1000)
+        for name, link in self.links.items():
+            stats = link.stats()
+            queue = queues.get(name)
+            drops = Counter(dict(stats.drops))
+            if queue is not None:
+                drops.update(queue.drops)
+            samples.append({
+                "link": name, "vehicle_id": "", "up": stats.state == "open",
+                "budget_bps": float(link.bandwidth_bps or 0.0),
+                "measured_bps": 0.0,
+                "queue_depth": (queue.depth if queue else 0) + stats.queue_depth,
+                "drops": [{"traffic_class": k, "count": v} for k, v in sorted(drops.items())],
+                "bytes_in": stats.bytes_in, "bytes_out": stats.bytes_out,
+                "messages_in": stats.messages_in, "messages_out": stats.messages_out,
+                "timestamp_ms": wall_ms,
+            })
+        return samples
+
+    async def _publish_link_status(self) -> None:
+        previous: dict[str, tuple[float, int]] = {}
+        while True:
+            await asyncio.sleep(LINK_STATUS_PERIOD)
+            now = time.monotonic()
+            for sample in self.link_status():
+                total = sample["bytes_in"] + sample["bytes_out"]
+                then, before = previous.get(sample["link"], (now, total))
+                if now > then:
+                    sample["measured_bps"] = (total - before) * 8 / (now - then)
+                previous[sample["link"]] = (now, total)
+                self._publish("LinkStatus", sample)
+
+    def _open_mirror(self) -> None:
+        if self._mirror.udp is not None:
+            self._mirror_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            self._mirror_sock.setblocking(False)
+        if self._mirror.pcap is not None:
+            self._mirror_file = open(self._mirror.pcap, "wb")  # noqa: SIM115 - kept open
+            self._mirror_pcap = PcapWriter(self._mirror_file)
+
+    def _tap(self, link: str, direction: str, peer: Peer | None, packets: Iterable[Packet]
+             ) -> None:
+        datagram = pack_datagram(packets)
+        if self._mirror_sock is not None and self._mirror.udp is not None:
+            try:
+                self._mirror_sock.sendto(datagram, self._mirror.udp)
+            except OSError:
+                self.counters["mirror drops"] += 1
+        if self._mirror_pcap is not None:
+            host = "127.0.0.1"
+            far = (peer[0], int(peer[1])) if isinstance(peer, tuple) and len(peer) >= 2 \
+                and isinstance(peer[0], str) and _is_ipv4(peer[0]) else ("127.0.0.2", 3794)
+            here = (host, 3794)
+            src, dst = (far, here) if direction == "in" else (here, far)
+            self._mirror_pcap.write(UdpDatagram(time.time(), src, dst, datagram))
+
+
+def _is_ipv4(text: str) -> bool:
+    try:
+        socket.inet_aton(text)
+    except OSError:
+        return False
+    return text.count(".") == 3
+
+
+def _catalogue_for(profile: RelayProfile) -> Catalogue:
+    catalogue = default_catalogue()
+    if not profile.jsidl:
+        return catalogue
+    from edge_vis.jsidl import load_jsidl
+
+    extended = Catalogue()
+    extended.add(list(catalogue), source="built-in")
+    extended.add(load_jsidl(list(profile.jsidl)), source="profile JSIDL")
+    return extended
+
+
+__all__ = ["MirrorOptions", "Runtime"]

@@ -1,0 +1,137 @@
+"""The translator contract: pure mappings between JAUS messages and DDS samples. No I/O.
+
+A translator is a plugin (entry-point group ``edge_vis.translators``) that declares, as
+class attributes, what it deals with, so conflicts are found at start-up:
+
+* ``messages`` - names of the JAUS messages it consumes (reports, usually);
+* ``reports`` - :class:`ReportSpec` entries: the reports it wants delivered, how to query
+  them, from which service and at which rate. The engine creates JAUS events for them (or
+  polls when the vehicle ignores events);
+* ``publishes`` / ``subscribes`` - the DDS topics it writes and reads;
+* ``controlled_services`` - service URIs it sends commands to; the engine takes control of
+  the components offering them while an operator holds the vehicle.
+
+Call order (one translator instance per engine)::
+
+    __init__()  ->  ( on_message | on_sample | on_vehicle )*
+
+Every hook receives a read-only :class:`TranslatorContext` and returns a list of actions
+(:class:`~edge_vis.engine.actions.Publish`, :class:`~edge_vis.engine.actions.Command`,
+:class:`~edge_vis.engine.actions.DeclareVehicle`). A translator never touches sockets,
+DDS or the clock; the context carries the time.
+"""
+
+from __future__ import annotations
+
+from abc import ABC
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+from edge_vis.engine.actions import Action
+from edge_vis.jaus.address import JausAddress
+
+#: Management states (ReportStatus.status), AS5710 Management service.
+STATUS_NAMES: Mapping[int, str] = {
+    0: "INITIALIZE", 1: "READY", 2: "STANDBY", 3: "SHUTDOWN", 4: "FAILURE", 5: "EMERGENCY",
+}
+
+
+@dataclass(frozen=True, slots=True)
+class ReportSpec:
+    """A report a translator wants: ``query`` (with ``query_fields``) asks ``service`` for
+    ``report``. ``rate`` is the default rate in Hz (profiles override it per report);
+    ``on_change`` asks for an every-change event instead of a periodic one."""
+
+    report: str
+    query: str
+    service: str
+    query_fields: Mapping[str, Any] = field(default_factory=dict)
+    rate: float = 1.0
+    on_change: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class VehicleView:
+    """What translators may know about a vehicle (a snapshot; changing it changes nothing).
+
+    ``state`` is the most severe management status of its components (``"READY"``,
+    ``"EMERGENCY"``...), ``"UNKNOWN"`` before any ReportStatus, ``"OFFLINE"`` when lost.
+    ``services`` are ``(uri, version)`` pairs over all components.
+    """
+
+    vehicle_id: str
+    subsystem: int
+    name: str = ""
+    vehicle_type: str = ""
+    address: JausAddress | None = None
+    services: tuple[tuple[str, str], ...] = ()
+    components: Mapping[JausAddress, tuple[tuple[str, str], ...]] = field(default_factory=dict)
+    online: bool = False
+    state: str = "UNKNOWN"
+    link: str = ""
+    last_seen: float | None = None
+    last_seen_ms: int = 0
+    controller: str = ""
+    controller_authority: int = 0
+    jaus_control: str = "none"
+    rejected_commands: int = 0
+    last_rejection: str = ""
+    notes: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class TranslatorContext:
+    """Read-only context of one call: the time, the relay and the vehicle concerned.
+
+    ``now`` is the engine's clock (seconds); ``timestamp_ms`` is wall-clock milliseconds
+    since the Unix epoch, for sample timestamps. ``source`` is the JAUS sender of the
+    message being translated, if any.
+    """
+
+    now: float
+    timestamp_ms: int
+    relay_id: JausAddress
+    vehicle: VehicleView | None = None
+    vehicles: Mapping[str, VehicleView] = field(default_factory=dict)
+    source: JausAddress | None = None
+
+
+class Translator(ABC):  # noqa: B024 - every hook has a harmless default
+    """Base class of translator plugins; override the hooks you need.
+
+    Subclasses are named ``<ServiceSet>Translator`` and registered under the entry-point
+    name they expose as :attr:`name`.
+    """
+
+    name: ClassVar[str] = ""
+    messages: ClassVar[tuple[str, ...]] = ()
+    reports: ClassVar[tuple[ReportSpec, ...]] = ()
+    publishes: ClassVar[tuple[str, ...]] = ()
+    subscribes: ClassVar[tuple[str, ...]] = ()
+    controlled_services: ClassVar[tuple[str, ...]] = ()
+
+    def on_message(
+        self, name: str, fields: Mapping[str, Any], ctx: TranslatorContext
+    ) -> list[Action]:
+        """A JAUS message listed in :attr:`messages` arrived from ``ctx.vehicle``.
+
+        Reports carried inside Event messages arrive here already unwrapped.
+        """
+        return []
+
+    def on_sample(
+        self, topic: str, sample: Mapping[str, Any], ctx: TranslatorContext
+    ) -> list[Action]:
+        """A sample of a topic listed in :attr:`subscribes` arrived (``ctx.vehicle`` is the
+        vehicle named by the sample's ``vehicle_id``, or None if unknown)."""
+        return []
+
+    def on_vehicle(self, change: str, ctx: TranslatorContext) -> list[Action]:
+        """The engine's view of ``ctx.vehicle`` changed.
+
+        ``change`` is one of ``"identified"`` (identity or services learnt),
+        ``"online"``, ``"offline"``, ``"status"`` (management state) and ``"control"``
+        (operator arbitration or JAUS access control).
+        """
+        return []

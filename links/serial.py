@@ -1,0 +1,263 @@
+"""JAUS over a serial line (radio modems, USB serial). I/O: a pyserial port on the asyncio loop.
+
+URL::
+
+    serial:///dev/ttyUSB0?baud=57600&rtscts=0&reopen=0.25&pace=1&frame_timeout=1.0
+
+* ``baud`` (default 19200, the JAUS Toolset default) sets the port and the pacing:
+  writes leave at most ``baud / 10`` bytes per second (8N1), so a radio's buffer is not
+  overrun and the router, not the modem, decides what waits. ``pace=0`` writes as fast
+  as the port accepts. The advertised ``bandwidth_bps`` is ``baud * 8 / 10`` unless the
+  ``bandwidth`` option says otherwise.
+* ``rtscts=1`` enables hardware flow control.
+* ``reopen`` (seconds, default 0.25): when the device disappears (USB radio unplugged,
+  read/write error, hang-up), the link goes ``down`` and retries opening the same path at
+  this interval; it comes back ``open`` without a restart. Packets sent while down are
+  dropped and counted (stale commands to a robot are worse than none).
+* ``frame_timeout`` (seconds): a partial frame older than this is discarded.
+
+The framing is :mod:`edge_vis.jaus.serial` (sans-I/O). This module opens the port with
+pyserial (which sets the line discipline and speed) and then reads and writes its file
+descriptor from the asyncio loop with ``add_reader``/``add_writer``: no threads. The peer
+address of every received packet is the device path (a serial line is point to point).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import errno
+import logging
+import os
+from collections import deque
+from collections.abc import Sequence
+from typing import ClassVar
+
+import serial  # pyserial
+
+from edge_vis.errors import ConfigError, LinkError
+from edge_vis.jaus.serial import FRAME_OVERHEAD, SerialDeframer, SerialError, frame
+from edge_vis.jaus.transport import Packet
+from edge_vis.link import Link, LinkUrl, Peer
+
+log = logging.getLogger(__name__)
+
+#: bytes held for writing before further sends are dropped
+MAX_WRITE_BUFFER = 64 * 1024
+_READ_SIZE = 65536
+
+
+class SerialLink(Link):
+    """JAUS serial framing over a serial device, paced to the baud rate, self-reopening."""
+
+    scheme: ClassVar[str] = "serial"
+    options: ClassVar[frozenset[str]] = frozenset(
+        {"baud", "rtscts", "reopen", "pace", "frame_timeout"}
+    )
+    overhead: ClassVar[int] = FRAME_OVERHEAD + 3  # framing plus typical DLE stuffing
+
+    def __init__(self, url: str | LinkUrl, *, name: str | None = None) -> None:
+        super().__init__(url, name=name)
+        self.path = self.url.path or self.url.host
+        if not self.path:
+            raise ConfigError([("", "url", f"{self.url}: no device path (serial:///dev/...)")])
+        self.baud = self.int_option("baud", 19200, low=50, high=20_000_000)
+        self.rtscts = self.bool_option("rtscts", False)
+        self.pace = self.bool_option("pace", True)
+        self.reopen_interval = _float_option(self, "reopen", 0.25)
+        self.frame_timeout = _float_option(self, "frame_timeout", 1.0)
+        if self.bandwidth_bps is None:
+            self.bandwidth_bps = self.baud * 8 / 10
+        self.bytes_per_second = self.baud / 10
+        self._port: serial.Serial | None = None
+        self._fd: int | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._deframer = SerialDeframer(timeout=self.frame_timeout)
+        self._out: deque[memoryview] = deque()
+        self._out_bytes = 0
+        self._budget = 0.0
+        self._budget_time = 0.0
+        self._pump_handle: asyncio.TimerHandle | None = None
+        self._writer_armed = False
+        self._reopen_task: asyncio.Task[None] | None = None
+        self.reopened = 0
+
+    # -- life cycle ------------------------------------------------------------------
+    async def _open(self) -> None:
+        self._loop = asyncio.get_running_loop()
+        try:
+            self._attach()
+        except (OSError, serial.SerialException) as exc:
+            raise LinkError(f"{self.name}: cannot open {self.path}: {exc}") from exc
+
+    def _attach(self) -> None:
+        port = serial.Serial(
+            port=self.path, baudrate=self.baud, timeout=0, write_timeout=0,
+            rtscts=self.rtscts, exclusive=False,
+        )
+        self._port = port
+        self._fd = port.fileno()
+        os.set_blocking(self._fd, False)
+        assert self._loop is not None
+        self._loop.add_reader(self._fd, self._readable)
+        self._deframer = SerialDeframer(timeout=self.frame_timeout)
+        self._budget = 0.0
+        self._budget_time = self._loop.time()
+
+    def _detach(self) -> None:
+        if self._fd is not None and self._loop is not None:
+            self._loop.remove_reader(self._fd)
+            if self._writer_armed:
+                self._loop.remove_writer(self._fd)
+        self._writer_armed = False
+        if self._pump_handle is not None:
+            self._pump_handle.cancel()
+            self._pump_handle = None
+        if self._port is not None:
+            with contextlib.suppress(OSError, serial.SerialException):
+                self._port.close()
+        self._port = None
+        self._fd = None
+        if self._out_bytes:
+            self.counters.dropped("link down", len(self._out))
+        self._out.clear()
+        self._out_bytes = 0
+
+    async def _close(self) -> None:
+        if self._reopen_task is not None:
+            self._reopen_task.cancel()
+            self._reopen_task = None
+        self._detach()
+
+    def _lost(self, reason: str) -> None:
+        """The device failed: go down and start trying to reopen it."""
+        self._detach()
+        self._set_state("down", reason)
+        if self._reopen_task is None and self.state != "closed" and self._loop is not None:
+            self._reopen_task = self._loop.create_task(self._reopen())
+
+    async def _reopen(self) -> None:
+        try:
+            while self.state == "down":
+                await asyncio.sleep(self.reopen_interval)
+                try:
+                    self._attach()
+                except (OSError, serial.SerialException) as exc:
+                    self.counters.last_error = f"reopen {self.path}: {exc}"
+                    continue
+                self.reopened += 1
+                self._set_state("open", f"{self.path} reopened")
+        finally:
+            self._reopen_task = None
+
+    @property
+    def queue_depth(self) -> int:
+        return self._out_bytes
+
+    # -- receiving -------------------------------------------------------------------
+    def _readable(self) -> None:
+        fd = self._fd
+        if fd is None:
+            return
+        try:
+            data = os.read(fd, _READ_SIZE)
+        except BlockingIOError:
+            return
+        except OSError as exc:
+            self._lost(f"read {self.path}: {exc.strerror or exc}")
+            return
+        if not data:
+            self._lost(f"{self.path}: end of file (device gone)")
+            return
+        assert self._loop is not None
+        self._consume(data, self._loop.time())
+
+    def _consume(self, data: bytes, now: float) -> None:
+        path = self.path
+        for item in self._deframer.feed(data, now):
+            if isinstance(item, SerialError):
+                self._malformed(path, item.reason, item.data)
+            else:
+                self._received(path, [item.packet], len(item.raw))
+
+    # -- sending ---------------------------------------------------------------------
+    def _send(self, packets: Sequence[Packet], peer: Peer | None) -> None:
+        if self._fd is None:
+            self.counters.dropped("link down", len(packets))
+            return
+        for packet in packets:
+            if self._out_bytes > MAX_WRITE_BUFFER:
+                self.counters.dropped("send buffer full")
+                continue
+            data = frame(packet)
+            self._out.append(memoryview(data))
+            self._out_bytes += len(data)
+            self.counters.sent(self.path, len(data), 1)
+        self._pump()
+
+    def _pump(self) -> None:
+        """Write what the pacing budget allows; schedule the rest."""
+        fd = self._fd
+        loop = self._loop
+        if fd is None or loop is None or self._writer_armed:
+            return
+        if self._pump_handle is not None:
+            self._pump_handle.cancel()
+            self._pump_handle = None
+        now = loop.time()
+        if self.pace:
+            burst = max(64.0, self.bytes_per_second * 0.01)
+            self._budget = min(burst, self._budget + (now - self._budget_time)
+                               * self.bytes_per_second)
+            self._budget_time = now
+        out = self._out
+        while out:
+            chunk = out[0]
+            allowed = int(self._budget) if self.pace else len(chunk)
+            if allowed <= 0:
+                break
+            piece = chunk[:allowed]
+            try:
+                written = os.write(fd, piece)
+            except BlockingIOError:
+                written = 0
+            except OSError as exc:
+                if exc.errno in (errno.EAGAIN, errno.EWOULDBLOCK):
+                    written = 0
+                else:
+                    self._lost(f"write {self.path}: {exc.strerror or exc}")
+                    return
+            if written == 0:  # the port is full: wait until it drains
+                loop.add_writer(fd, self._writable)
+                self._writer_armed = True
+                return
+            self._out_bytes -= written
+            if self.pace:
+                self._budget -= written
+            if written == len(chunk):
+                out.popleft()
+            else:
+                out[0] = chunk[written:]
+        if out:
+            wait = (1.0 - self._budget) / self.bytes_per_second
+            self._pump_handle = loop.call_later(max(wait, 0.0005), self._pump)
+
+    def _writable(self) -> None:
+        if self._fd is not None and self._loop is not None:
+            self._loop.remove_writer(self._fd)
+        self._writer_armed = False
+        self._pump()
+
+
+def _float_option(link: Link, key: str, default: float) -> float:
+    text = link.url.options.get(key)
+    if not text:
+        return default
+    try:
+        value = float(text)
+    except ValueError:
+        raise ConfigError([("", f"url.{key}", f"{link.url}: {key}={text!r} is not a "
+                            "number")]) from None
+    if value <= 0:
+        raise ConfigError([("", f"url.{key}", f"{link.url}: {key} must be positive")])
+    return value

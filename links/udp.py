@@ -1,0 +1,227 @@
+"""JUDP: JAUS over UDP (AS5669A). I/O: an asyncio datagram endpoint.
+
+URL::
+
+    udp://HOST:PORT?multicast=239.255.0.1&ttl=16&peers=10.0.0.5:3794,10.0.0.6&pack=1
+
+* ``HOST:PORT`` is the local bind address (default ``0.0.0.0:3794``). Several JAUS
+  nodes can share one host by binding ``127.0.0.2:3794``, ``127.0.0.3:3794``, ...
+* ``multicast``: group that carries JAUS broadcasts; ``off`` disables it. Default
+  ``239.255.0.1`` when bound to all interfaces (as the JAUS Toolset), else ``off``
+  (a socket bound to one address cannot receive multicast).
+* ``ttl`` (default 16) and ``loop`` (default 0) are the multicast TTL and loopback.
+* ``peers``: configured peers (``host[:port]``, comma separated) that always receive
+  broadcasts; unicast goes to wherever the router says a component lives.
+* ``broadcast``: where a broadcast goes, a comma list of ``multicast``, ``peers``,
+  ``learned`` (every peer heard from recently) and literal IPv4 broadcast addresses
+  (``10.0.0.255``). Default ``multicast,peers``, or ``peers,learned`` without multicast.
+* ``pack=1`` packs several packets bound for the same peer into one datagram, up to
+  ``1 + 14 + mtu`` bytes (the JAUS Toolset reads such datagrams; it never sends them).
+
+The protocol logic (datagram layout) is :mod:`edge_vis.jaus.transport`; this module only
+moves bytes. A datagram that does not decode is counted as malformed and dropped whole.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import ipaddress
+import logging
+import socket
+from collections import OrderedDict
+from collections.abc import Sequence
+from typing import ClassVar
+
+from edge_vis.errors import ConfigError, DecodeError, LinkError
+from edge_vis.jaus.transport import JUDP_VERSION, Packet, encode_packet, unpack_datagram
+from edge_vis.link import Link, LinkUrl, Peer, parse_peers
+
+log = logging.getLogger(__name__)
+
+JUDP_PORT = 3794
+JTS_MULTICAST = "239.255.0.1"
+#: datagrams waiting in the asyncio transport before further sends are dropped
+MAX_WRITE_BUFFER = 1 << 20
+#: peers remembered for ``broadcast=learned``
+MAX_LEARNED = 256
+
+
+class UdpLink(Link):
+    """JAUS over UDP: unicast to peers, broadcasts to a multicast group and/or peers."""
+
+    scheme: ClassVar[str] = "udp"
+    options: ClassVar[frozenset[str]] = frozenset(
+        {"multicast", "ttl", "loop", "peers", "broadcast", "pack"}
+    )
+    overhead: ClassVar[int] = 29  # IPv4 20 + UDP 8 + JUDP version byte 1
+
+    def __init__(self, url: str | LinkUrl, *, name: str | None = None) -> None:
+        super().__init__(url, name=name)
+        opts = self.url.options
+        self.bind_host = self.url.host or "0.0.0.0"
+        self.bind_port = self.url.port if self.url.port is not None else JUDP_PORT
+        group = opts.get("multicast", "")
+        if group.lower() in ("off", "0", "none", "no"):
+            group = ""
+        elif not group and self.bind_host == "0.0.0.0":
+            group = JTS_MULTICAST
+        if group:
+            try:
+                if not ipaddress.IPv4Address(group).is_multicast:
+                    raise ValueError
+            except ValueError:
+                raise ConfigError([("", "url.multicast",
+                                    f"{self.url}: {group!r} is not a multicast group")]) from None
+        self.multicast = group
+        self.ttl = self.int_option("ttl", 16, low=0, high=255)
+        self.multicast_loop = self.bool_option("loop", False)
+        self.peers: list[tuple[str, int]] = parse_peers(opts.get("peers", ""), JUDP_PORT)
+        default = "multicast,peers" if group else "peers,learned"
+        self.broadcast_to = [b.strip() for b in opts.get("broadcast", default).split(",")
+                             if b.strip()]
+        for target in self.broadcast_to:
+            if target not in ("multicast", "peers", "learned"):
+                try:
+                    ipaddress.IPv4Address(target)
+                except ValueError:
+                    raise ConfigError([("", "url.broadcast", f"{self.url}: broadcast target "
+                                        f"{target!r} is not multicast/peers/learned or an "
+                                        "IPv4 address")]) from None
+        if "multicast" in self.broadcast_to and not group:
+            self.broadcast_to.remove("multicast")
+        self.pack = self.bool_option("pack", False)
+        self._transport: asyncio.DatagramTransport | None = None
+        self._learned: OrderedDict[Peer, None] = OrderedDict()
+        self.local_address: tuple[str, int] | None = None
+
+    # -- life cycle ------------------------------------------------------------------
+    async def _open(self) -> None:
+        loop = asyncio.get_running_loop()
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        try:
+            sock.setblocking(False)
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 1 << 20)
+            if any(_is_ip(t) for t in self.broadcast_to):
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
+            sock.bind((self.bind_host, self.bind_port))
+            if self.multicast:
+                membership = socket.inet_aton(self.multicast) + socket.inet_aton("0.0.0.0")
+                sock.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP, membership)
+                sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, self.ttl)
+                sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_LOOP,
+                                int(self.multicast_loop))
+        except OSError as exc:
+            sock.close()
+            raise LinkError(f"{self.name}: cannot bind {self.bind_host}:{self.bind_port}: "
+                            f"{exc.strerror or exc}") from exc
+        self.local_address = sock.getsockname()
+        transport, _ = await loop.create_datagram_endpoint(lambda: _Protocol(self), sock=sock)
+        self._transport = transport
+
+    async def _close(self) -> None:
+        if self._transport is not None:
+            self._transport.close()
+            self._transport = None
+
+    @property
+    def queue_depth(self) -> int:
+        return self._transport.get_write_buffer_size() if self._transport else 0
+
+    # -- sending ---------------------------------------------------------------------
+    def _send(self, packets: Sequence[Packet], peer: Peer | None) -> None:
+        transport = self._transport
+        if transport is None:
+            self.counters.dropped("link down", len(packets))
+            return
+        if transport.get_write_buffer_size() > MAX_WRITE_BUFFER:
+            self.counters.dropped("send buffer full", len(packets))
+            return
+        datagrams = self._datagrams(packets)
+        targets = [peer] if peer is not None else self._broadcast_targets()
+        counters = self.counters
+        for target in targets:
+            for data, count in datagrams:
+                try:
+                    transport.sendto(data, target)  # type: ignore[arg-type]
+                except (OSError, ValueError, TypeError) as exc:
+                    counters.dropped("send error", count)
+                    counters.last_error = str(exc)
+                    continue
+                counters.sent(target, len(data), count)
+
+    def _datagrams(self, packets: Sequence[Packet]) -> list[tuple[bytes, int]]:
+        version = bytes((JUDP_VERSION,))
+        if not self.pack or len(packets) == 1:
+            return [(version + encode_packet(p), 1) for p in packets]
+        limit = self.mtu + 14
+        out: list[tuple[bytes, int]] = []
+        parts: list[bytes] = []
+        size = 0
+        for p in packets:
+            encoded = encode_packet(p)
+            if parts and size + len(encoded) > limit:
+                out.append((version + b"".join(parts), len(parts)))
+                parts, size = [], 0
+            parts.append(encoded)
+            size += len(encoded)
+        if parts:
+            out.append((version + b"".join(parts), len(parts)))
+        return out
+
+    def _broadcast_targets(self) -> list[Peer]:
+        targets: list[Peer] = []
+        for kind in self.broadcast_to:
+            if kind == "multicast":
+                targets.append((self.multicast, self.bind_port))
+            elif kind == "peers":
+                targets.extend(self.peers)
+            elif kind == "learned":
+                targets.extend(self._learned)
+            else:
+                targets.append((kind, self.bind_port))
+        own = self.local_address
+        unique: dict[Peer, None] = {}
+        for t in targets:
+            if t != own:
+                unique[t] = None
+        return list(unique)
+
+    # -- receiving -------------------------------------------------------------------
+    def _datagram(self, data: bytes, addr: tuple[str, int]) -> None:
+        try:
+            packets = unpack_datagram(data)
+        except DecodeError as exc:
+            self._malformed(addr, str(exc), data)
+            return
+        learned = self._learned
+        if addr in learned:
+            learned.move_to_end(addr)
+        else:
+            learned[addr] = None
+            if len(learned) > MAX_LEARNED:
+                learned.popitem(last=False)
+        self._received(addr, packets, len(data))
+
+
+class _Protocol(asyncio.DatagramProtocol):
+    """asyncio callbacks, forwarded to the link."""
+
+    def __init__(self, link: UdpLink) -> None:
+        self.link = link
+
+    def datagram_received(self, data: bytes, addr: tuple[str, int]) -> None:
+        self.link._datagram(data, addr)
+
+    def error_received(self, exc: Exception) -> None:
+        # ICMP port unreachable from a peer that went away: count, keep running
+        self.link.counters.dropped("peer unreachable")
+        self.link.counters.last_error = str(exc)
+
+
+def _is_ip(text: str) -> bool:
+    try:
+        ipaddress.IPv4Address(text)
+    except ValueError:
+        return False
+    return True

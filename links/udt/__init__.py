@@ -1,0 +1,54 @@
+"""The UDT bulk channel: whole, verified, resumable image files from vehicles to operators.
+
+Entry point ``udt`` in group ``edge_vis.links`` names :class:`UdtLink`. Unlike the JAUS
+packet links, this plugin carries files, not packets: large ATR images travel on their
+own UDT connection (vehicle → relay → operator station) so they never compete with
+control traffic beyond the rate budget they are given.
+
+Modules: :mod:`.protocol` (sans-I/O frames and state machines), :mod:`.spool` (journalled
+store-and-forward on disk), :mod:`.link` (udt4py sockets and threads), :mod:`.products`
+(bus sample shapes), :mod:`.service` (what the CLI commands run). Importing this package
+does not import udt4py; opening a socket without it raises ``LinkError``.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+from links.udt.link import BulkReceiver, BulkSender, Forwarder, TransferResult, parse_address
+from links.udt.protocol import AtrMetadata, Backoff, Manifest, Position, Reason
+from links.udt.service import ImageService, manifest_for_file, send_image
+from links.udt.spool import Spool, SpoolRefusal
+
+
+class UdtLink:
+    """Namespace of the UDT bulk channel, as loaded through the ``edge_vis.links`` entry point.
+
+    The core reaches everything through this class so it never imports ``links``::
+
+        udt = edge_vis.plugins.load("edge_vis.links", "udt")
+        result = udt.send_image("img.png", "10.0.0.2:9000", vehicle_id="uuv1")
+        service = udt.ImageService("images/", "0.0.0.0:9000", forward=["ops:9000"]).start()
+    """
+
+    scheme: ClassVar[str] = "udt"
+    kind: ClassVar[str] = "bulk"
+
+    send_image = staticmethod(send_image)
+    manifest_for_file = staticmethod(manifest_for_file)
+    parse_address = staticmethod(parse_address)
+    ImageService = ImageService
+    BulkSender = BulkSender
+    BulkReceiver = BulkReceiver
+    Forwarder = Forwarder
+    Spool = Spool
+    SpoolRefusal = SpoolRefusal
+    Manifest = Manifest
+    AtrMetadata = AtrMetadata
+    Position = Position
+    Backoff = Backoff
+    Reason = Reason
+    TransferResult = TransferResult
+
+
+__all__ = ["UdtLink"]

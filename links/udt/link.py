@@ -1,0 +1,628 @@
+"""UDT I/O for bulk image transfer: udt4py sockets, one thread per connection. Does I/O.
+
+The protocol decisions live in :mod:`links.udt.protocol` and storage in
+:mod:`links.udt.spool`; this module only moves bytes between them and UDT sockets.
+UDT calls block and release the GIL, so plain threads are the natural shell (UDT
+sockets have no OS file descriptor an asyncio loop could watch).
+
+Call order::
+
+    BulkReceiver(spool, bind).start() -> (connections served on threads)* -> stop()
+    BulkSender(address).send_file(path, manifest) -> TransferResult   (blocking)
+    Forwarder(spool, target).start() -> (outbox drained, retried with backoff)* -> stop()
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from edge_vis.errors import LinkError
+from links.udt.protocol import (
+    DATA_CHUNK,
+    Accepted,
+    Backoff,
+    DataComplete,
+    DataReceived,
+    Manifest,
+    ManifestReceived,
+    ManifestRejected,
+    PeerErrored,
+    ProtocolErrorDetected,
+    Reason,
+    ReceiptReceived,
+    ReceiverConnection,
+    Refused,
+    SenderConnection,
+    State,
+)
+from links.udt.spool import Spool, SpoolRefusal
+
+log = logging.getLogger(__name__)
+
+POLL_MS = 250
+"""Receive timeout on every socket, so threads notice ``stop()`` within this time."""
+SNDBUF_MIN = 256 * 1024
+SNDBUF_MAX = 12 * 1024 * 1024
+
+
+def udt4py() -> Any:
+    """The udt4py module, or :class:`LinkError` saying how to install it."""
+    try:
+        import udt4py as mod
+    except ImportError as exc:
+        raise LinkError(
+            "the UDT link needs udt4py (pip install 'edge-vis[udt]', with libudt-dev)"
+        ) from exc
+    return mod
+
+
+def parse_address(text: str) -> tuple[str, int]:
+    """``HOST:PORT`` (IPv4) → tuple; raises ValueError with the reason."""
+    host, sep, port = text.rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 <= int(port) <= 65535:
+        raise ValueError(f"expected HOST:PORT, got {text!r}")
+    return host, int(port)
+
+
+class ConnectionLost(Exception):
+    """The UDT connection broke or timed out; the transfer can resume on a new one."""
+
+
+def _connect(address: tuple[str, int], timeout: float, max_rate_bps: int | None) -> Any:
+    """Open a UDT connection within ``timeout`` seconds (UDT's own wait is a fixed 3 s)."""
+    udt = udt4py()
+    sock = udt.UDTSocket()
+    if max_rate_bps:
+        sock.UDT_MAXBW = max(1, int(max_rate_bps) // 8)
+        # Keep about two seconds of data in flight, so progress means "delivered" and a
+        # slow link does not hold megabytes that a reconnection would send again.
+        sock.UDT_SNDBUF = int(min(SNDBUF_MAX, max(SNDBUF_MIN, max_rate_bps / 8 * 2)))
+    sock.UDT_RCVSYN = False
+    try:
+        sock.connect(address)
+    except udt.UDTException as exc:
+        sock.close()
+        raise ConnectionLost(f"connect to {address[0]}:{address[1]}: {exc}") from exc
+    status = udt.UDTSocket.Status
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        st = sock.status
+        if st == status.CONNECTED:
+            sock.UDT_RCVSYN = True
+            sock.UDT_RCVTIMEO = POLL_MS
+            return sock
+        if st not in (status.CONNECTING, status.OPENED, status.INIT):
+            break
+        time.sleep(0.005)
+    sock.close()
+    raise ConnectionLost(f"no UDT answer from {address[0]}:{address[1]} within {timeout:g} s")
+
+
+def _pending(sock: Any) -> int:
+    """Bytes accepted by UDT but not yet acknowledged by the peer (approximately).
+
+    ``UDT_SNDDATA`` counts packets; each carries the MSS less IP, UDP and UDT headers.
+    """
+    try:
+        return int(sock.UDT_SNDDATA) * (int(sock.UDT_MSS) - 44)
+    except udt4py().UDTException:
+        return 0
+
+
+def _close(sock: Any) -> None:
+    """Close, tolerating a socket another thread closed first (drop_connections)."""
+    with contextlib.suppress(udt4py().UDTException):
+        sock.close()
+
+
+def _send_all(sock: Any, data: bytes) -> None:
+    udt = udt4py()
+    view = memoryview(data)
+    try:
+        while view:
+            sent = sock.send(view)
+            view = view[sent:]
+    except udt.UDTException as exc:
+        raise ConnectionLost(str(exc)) from exc
+
+
+# --------------------------------------------------------------------------- sender
+
+
+@dataclass(frozen=True, slots=True)
+class TransferResult:
+    """How a transfer ended. ``ok`` only when the far end confirmed the SHA-256."""
+
+    ok: bool
+    reason: str = ""
+    code: Reason | None = None
+    attempts: int = 1
+    resumed_from: tuple[int, ...] = ()
+
+
+ProgressFn = Callable[[int, int], None]
+"""``progress(bytes_confirmed_or_sent, total)``, called after each chunk."""
+
+
+class BulkSender:
+    """Sends files to one receiver, reconnecting with backoff and resuming where it left off.
+
+    ``max_rate_bps`` caps the UDT send rate (bit/s, via ``UDT_MAXBW``) so bulk data leaves
+    room for control traffic on a shared radio. ``give_up_after`` (seconds without any
+    progress) bounds retries; None retries until ``stop`` is set. Refusals whose code is in
+    ``retry_refusals`` (the receiver is busy or full) are retried like a dropped link.
+    """
+
+    def __init__(
+        self,
+        address: tuple[str, int],
+        *,
+        max_rate_bps: int | None = None,
+        backoff: Backoff | None = None,
+        connect_timeout: float = 2.0,
+        idle_timeout: float = 20.0,
+        give_up_after: float | None = 60.0,
+        retry_refusals: frozenset[Reason] = frozenset({Reason.BUSY}),
+        stop: threading.Event | None = None,
+        progress: ProgressFn | None = None,
+    ) -> None:
+        self.address = address
+        self.max_rate_bps = max_rate_bps
+        self.backoff = backoff or Backoff()
+        self.connect_timeout = connect_timeout
+        self.idle_timeout = idle_timeout
+        self.give_up_after = give_up_after
+        self.retry_refusals = retry_refusals
+        self.stop = stop or threading.Event()
+        self.progress = progress
+
+    @property
+    def target(self) -> str:
+        return f"{self.address[0]}:{self.address[1]}"
+
+    def send_file(self, path: str | Path, manifest: Manifest) -> TransferResult:
+        """Send ``path`` as described by ``manifest``; return once the receipt says so."""
+        attempts = 0
+        offsets: list[int] = []
+        last_progress = time.monotonic()
+        best = -1
+        while True:
+            attempts += 1
+            try:
+                outcome = self._attempt(Path(path), manifest, offsets)
+            except ConnectionLost as exc:
+                log.info("transfer %s to %s interrupted: %s", manifest.name, self.target, exc)
+                outcome = None
+            if isinstance(outcome, TransferResult):
+                return TransferResult(
+                    outcome.ok, outcome.reason, outcome.code, attempts, tuple(offsets)
+                )
+            if offsets and offsets[-1] > best:
+                best = offsets[-1]
+                last_progress = time.monotonic()
+                self.backoff.reset()
+            if outcome is not None and outcome > best:  # bytes sent this attempt
+                best = outcome
+                last_progress = time.monotonic()
+                self.backoff.reset()
+            if self.give_up_after is not None and (
+                time.monotonic() - last_progress > self.give_up_after
+            ):
+                return TransferResult(
+                    False, f"gave up: no progress towards {self.target} for "
+                    f"{self.give_up_after:g} s", Reason.TIMEOUT, attempts, tuple(offsets),
+                )
+            delay = self.backoff.next_delay()
+            log.info("reconnecting to %s in %.2f s", self.target, delay)
+            if self.stop.wait(delay):
+                return TransferResult(
+                    False, "stopped", Reason.SHUTDOWN, attempts, tuple(offsets)
+                )
+
+    def _attempt(
+        self, path: Path, manifest: Manifest, offsets: list[int]
+    ) -> TransferResult | int | None:
+        """One connection. A result ends the transfer; an int is bytes reached before a drop."""
+        sock = _connect(self.address, self.connect_timeout, self.max_rate_bps)
+        conn = SenderConnection(idle_timeout=self.idle_timeout)
+        try:
+            conn.send_manifest(manifest, time.monotonic())
+            _send_all(sock, conn.data_to_send())
+            answer = self._next_event(sock, conn)
+            if isinstance(answer, Refused):
+                if answer.code in self.retry_refusals:
+                    log.info("%s refused %s for now: %s", self.target, manifest.name, answer.reason)
+                    return None
+                return TransferResult(False, answer.reason, answer.code)
+            if not isinstance(answer, Accepted):
+                return self._ended(answer)
+            offsets.append(answer.offset)
+            if answer.offset:
+                log.info("resuming %s at byte %d of %d", manifest.name, answer.offset,
+                         manifest.size)
+            try:
+                self._stream(sock, conn, path, answer.offset)
+            except ConnectionLost:
+                # The receiver may have said why before closing.
+                return self._reason_after_drop(sock, conn)
+            receipt = self._next_event(sock, conn)
+            if isinstance(receipt, ReceiptReceived):
+                if self.progress and receipt.ok:
+                    self.progress(manifest.size, manifest.size)
+                return TransferResult(receipt.ok, receipt.reason or "SHA-256 verified",
+                                      None if receipt.ok else Reason.HASH_MISMATCH)
+            return self._ended(receipt)
+        finally:
+            sock.close()
+
+    def _stream(self, sock: Any, conn: SenderConnection, path: Path, offset: int) -> None:
+        assert conn.manifest is not None
+        total = conn.manifest.size
+        with open(path, "rb") as fh:
+            fh.seek(offset)
+            while conn.state is State.SENDING:
+                if self.stop.is_set():
+                    raise ConnectionLost("stopped")
+                chunk = fh.read(min(DATA_CHUNK, conn.remaining))
+                if not chunk:
+                    raise LinkError(f"{path} is shorter than its manifest says ({total} bytes)")
+                conn.send_data(chunk, time.monotonic())
+                _send_all(sock, conn.data_to_send())
+                if self.progress:
+                    self.progress(max(offset, conn.offset - _pending(sock)), total)
+
+    def _reason_after_drop(self, sock: Any, conn: SenderConnection) -> TransferResult | int:
+        reached = conn.offset
+        try:
+            event = self._next_event(sock, conn, limit=0.5)
+        except ConnectionLost:
+            return reached
+        if isinstance(event, ReceiptReceived) and not event.ok:
+            return TransferResult(False, event.reason, Reason.HASH_MISMATCH)
+        if isinstance(event, PeerErrored) and event.code not in (Reason.SHUTDOWN, Reason.TIMEOUT):
+            return TransferResult(False, event.reason, event.code)
+        return reached
+
+    def _ended(self, event: object) -> TransferResult | None:
+        if isinstance(event, PeerErrored):
+            if event.code in (Reason.SHUTDOWN, Reason.TIMEOUT, Reason.BUSY):
+                log.info("%s closed the connection: %s", self.target, event.reason)
+                return None
+            return TransferResult(False, event.reason, event.code)
+        if isinstance(event, ProtocolErrorDetected):
+            return TransferResult(False, f"receiver broke the protocol: {event.reason}", event.code)
+        raise ConnectionLost(f"unexpected {event!r}")
+
+    def _next_event(self, sock: Any, conn: SenderConnection, limit: float | None = None) -> Any:
+        udt = udt4py()
+        buf = bytearray(64 * 1024)
+        started = time.monotonic()
+        while True:
+            if self.stop.is_set():
+                raise ConnectionLost("stopped")
+            try:
+                n = sock.recv(buf)
+            except udt.UDTException as exc:
+                if exc.error_code != udt.UDTException.ETIMEOUT:
+                    raise ConnectionLost(str(exc)) from exc
+                n = 0
+            now = time.monotonic()
+            if n:
+                events = conn.receive_data(bytes(buf[:n]), now)
+            else:
+                pending = _pending(sock)
+                if pending:  # our data is still draining: the link is slow, not dead
+                    conn.touch(now)
+                    if self.progress and conn.manifest is not None:
+                        self.progress(conn.offset - pending, conn.manifest.size)
+                events = conn.handle_timer(now)
+            out = conn.data_to_send()
+            if out:
+                _send_all(sock, out)
+            if events:
+                return events[0]
+            if limit is not None and now - started > limit:
+                raise ConnectionLost("no answer")
+
+
+# --------------------------------------------------------------------------- receiver
+
+VerifiedFn = Callable[[Manifest, Path], None]
+StatusFn = Callable[[dict[str, Any]], None]
+
+
+class BulkReceiver:
+    """Accepts UDT connections and stores transfers in a :class:`Spool`.
+
+    ``on_verified(manifest, path)`` is called once per file whose SHA-256 matched, after the
+    spool recorded it; ``on_status(dict)`` gets a ``TransferStatus``-shaped dict on each
+    state change (started, resumed, verified, refused, failed).
+    """
+
+    def __init__(
+        self,
+        spool: Spool,
+        bind: tuple[str, int] = ("127.0.0.1", 0),
+        *,
+        on_verified: VerifiedFn | None = None,
+        on_status: StatusFn | None = None,
+        idle_timeout: float = 30.0,
+        max_connections: int = 16,
+    ) -> None:
+        self.spool = spool
+        self._bind = bind
+        self.on_verified = on_verified
+        self.on_status = on_status
+        self.idle_timeout = idle_timeout
+        self.max_connections = max_connections
+        self._listener: Any = None
+        self._threads: list[threading.Thread] = []
+        self._conns: dict[int, Any] = {}
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self.counters = {"connections": 0, "protocol_errors": 0, "refused": 0, "verified": 0}
+
+    @property
+    def address(self) -> tuple[str, int]:
+        if self._listener is None:
+            raise LinkError("receiver not started")
+        return tuple(self._listener.address)  # type: ignore[return-value]
+
+    def start(self) -> BulkReceiver:
+        udt = udt4py()
+        sock = udt.UDTSocket()
+        try:
+            sock.UDT_REUSEADDR = True
+            sock.bind(self._bind)
+            sock.listen(32)
+        except udt.UDTException as exc:
+            sock.close()
+            raise LinkError(f"cannot listen on {self._bind[0]}:{self._bind[1]}: {exc}") from exc
+        self._listener = sock
+        t = threading.Thread(target=self._accept_loop, name="udt-accept", daemon=True)
+        t.start()
+        self._threads.append(t)
+        log.info("receiving images on udt://%s:%d", *self.address)
+        return self
+
+    def __enter__(self) -> BulkReceiver:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def drop_connections(self) -> int:
+        """Close every open connection at once (partial data is kept); return how many."""
+        with self._lock:
+            conns = list(self._conns.values())
+        for sock in conns:
+            _close(sock)
+        return len(conns)
+
+    def stop(self) -> None:
+        """Stop accepting, close connections, keep everything received (idempotent)."""
+        self._stop.set()
+        if self._listener is not None:
+            self._listener.close()
+        for t in list(self._threads):
+            t.join(timeout=5)
+        self._threads.clear()
+
+    def _accept_loop(self) -> None:
+        udt = udt4py()
+        while not self._stop.is_set():
+            try:
+                sock, peer = self._listener.accept()
+            except udt.UDTException as exc:
+                if not self._stop.is_set():
+                    log.error("accept failed: %s", exc)
+                    time.sleep(0.1)
+                continue
+            self.counters["connections"] += 1
+            with self._lock:
+                busy = len(self._conns) >= self.max_connections
+            if busy:
+                conn = ReceiverConnection()
+                conn.close_with_error(Reason.BUSY, "too many connections; retry later")
+                with contextlib.suppress(ConnectionLost):
+                    _send_all(sock, conn.data_to_send())
+                _close(sock)
+                continue
+            t = threading.Thread(
+                target=self._serve, args=(sock, f"{peer[0]}:{peer[1]}"), daemon=True,
+                name=f"udt-conn-{peer[1]}",
+            )
+            self._threads = [x for x in self._threads if x.is_alive()]
+            self._threads.append(t)
+            t.start()
+
+    def _status(self, manifest: Manifest, state: str, offset: int, detail: str = "") -> None:
+        if self.on_status is None:
+            return
+        try:
+            self.on_status({
+                "transfer_id": manifest.transfer_id,
+                "vehicle_id": manifest.vehicle_id,
+                "name": manifest.name,
+                "state": state,
+                "bytes_received": offset,
+                "size": manifest.size,
+                "detail": detail,
+            })
+        except Exception:  # a status consumer must not break a transfer
+            log.exception("status callback failed")
+
+    def _serve(self, sock: Any, peer: str) -> None:
+        udt = udt4py()
+        with self._lock:
+            self._conns[id(sock)] = sock
+        sock.UDT_RCVTIMEO = POLL_MS
+        conn = ReceiverConnection(idle_timeout=self.idle_timeout)
+        buf = bytearray(DATA_CHUNK)
+        current: str | None = None
+        try:
+            while not self._stop.is_set():
+                try:
+                    n = sock.recv(buf)
+                except udt.UDTException as exc:
+                    if exc.error_code != udt.UDTException.ETIMEOUT:
+                        log.info("connection from %s ended: %s", peer, exc)
+                        return
+                    n = 0
+                now = time.monotonic()
+                events = conn.receive_data(bytes(buf[:n]), now) if n else conn.handle_timer(now)
+                for event in events:
+                    current = self._handle(conn, event, peer, current)
+                out = conn.data_to_send()
+                if out:
+                    _send_all(sock, out)
+                if conn.state is State.CLOSED:
+                    time.sleep(0.05)  # let UDT deliver the ERROR frame before closing
+                    return
+            conn.close_with_error(Reason.SHUTDOWN, "receiver shutting down")
+            _send_all(sock, conn.data_to_send())
+        except ConnectionLost as exc:
+            log.info("connection from %s lost: %s", peer, exc)
+        finally:
+            if current is not None:
+                self.spool.release(current)
+                entry = self.spool.entry(current)
+                if entry is not None and entry.state.value == "partial":
+                    self._status(entry.manifest, "interrupted", entry.durable)
+            with self._lock:
+                self._conns.pop(id(sock), None)
+            _close(sock)
+
+    def _handle(self, conn: ReceiverConnection, event: Any, peer: str, current: str | None
+                ) -> str | None:
+        if isinstance(event, ManifestReceived):
+            m = event.manifest
+            try:
+                offset = self.spool.begin(m)
+            except SpoolRefusal as exc:
+                self.counters["refused"] += 1
+                log.warning("refused %s from %s (%s): %s", m.name, peer, exc.code.name, exc.reason)
+                conn.refuse(exc.code, exc.reason)
+                self._status(m, "refused", 0, exc.reason)
+                return None
+            log.info("%s %s (%d bytes) from %s at offset %d",
+                     "resuming" if offset else "receiving", m.name, m.size, peer, offset)
+            self._status(m, "resumed" if offset else "started", offset)
+            for follow in conn.accept(offset):
+                self._handle(conn, follow, peer, m.transfer_id)
+            return m.transfer_id if conn.state is not State.AWAIT_MANIFEST else None
+        if isinstance(event, DataReceived):
+            try:
+                self.spool.write(event.transfer_id, event.offset, event.data)
+            except SpoolRefusal as exc:
+                log.error("storage failure for %s: %s", event.transfer_id, exc.reason)
+                conn.close_with_error(exc.code, exc.reason)
+            return current
+        if isinstance(event, DataComplete):
+            m = event.manifest
+            try:
+                path = self.spool.complete(m.transfer_id)
+            except SpoolRefusal as exc:
+                log.warning("%s from %s failed verification: %s", m.name, peer, exc.reason)
+                conn.send_receipt(False, "", exc.reason)
+                self._status(m, "failed", m.size, exc.reason)
+                self.spool.release(m.transfer_id)
+                return None
+            self.spool.release(m.transfer_id)
+            conn.send_receipt(True, m.sha256)
+            self.counters["verified"] += 1
+            log.info("verified %s from %s (sha256 %s...)", m.name, m.vehicle_id, m.sha256[:12])
+            self._status(m, "verified", m.size)
+            if self.on_verified is not None:
+                try:
+                    self.on_verified(m, path)
+                except Exception:  # announcing must not lose the file
+                    log.exception("announcing %s failed", m.name)
+            return None
+        if isinstance(event, ManifestRejected):
+            self.counters["refused"] += 1
+            log.warning("refused a manifest from %s (%s): %s", peer, event.code.name, event.reason)
+            return current
+        if isinstance(event, ProtocolErrorDetected):
+            self.counters["protocol_errors"] += 1
+            log.warning("closing connection from %s (%s): %s", peer, event.code.name, event.reason)
+            return current
+        if isinstance(event, PeerErrored):
+            log.info("%s closed with %s: %s", peer, event.code.name, event.reason)
+        return current
+
+
+# --------------------------------------------------------------------------- forwarder
+
+
+class Forwarder:
+    """Drains a spool's outbox to one downstream receiver; waits out outages with backoff.
+
+    Files stay in the spool (and count against its quota) until the target's receipt
+    confirms the hash, so an unreachable target only delays them.
+    """
+
+    def __init__(
+        self,
+        spool: Spool,
+        target: tuple[str, int],
+        *,
+        max_rate_bps: int | None = None,
+        backoff: Backoff | None = None,
+        connect_timeout: float = 1.0,
+    ) -> None:
+        self.spool = spool
+        self.target = target
+        self.name = f"{target[0]}:{target[1]}"
+        self._wake = threading.Event()
+        self._stop = threading.Event()
+        self._sender = BulkSender(
+            target, max_rate_bps=max_rate_bps,
+            backoff=backoff or Backoff(initial=0.2, maximum=5.0),
+            connect_timeout=connect_timeout, give_up_after=None,
+            retry_refusals=frozenset({Reason.BUSY, Reason.QUOTA, Reason.STORAGE}),
+            stop=self._stop,
+        )
+        self._thread: threading.Thread | None = None
+        self.counters = {"forwarded": 0, "rejected": 0}
+
+    def start(self) -> Forwarder:
+        self._thread = threading.Thread(target=self._run, name=f"udt-fwd-{self.name}",
+                                        daemon=True)
+        self._thread.start()
+        return self
+
+    def wake(self) -> None:
+        """A new file is verified: look at the outbox now."""
+        self._wake.set()
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._wake.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            self._wake.clear()
+            for manifest, path in self.spool.outbox(self.name):
+                if self._stop.is_set():
+                    return
+                result = self._sender.send_file(path, manifest)
+                if result.ok:
+                    self.spool.mark_forwarded(manifest.transfer_id, self.name)
+                    self.counters["forwarded"] += 1
+                    log.info("forwarded %s to %s", manifest.name, self.name)
+                elif result.code is not Reason.SHUTDOWN:
+                    # A permanent refusal: keep the file (never drop unsent data) and say so.
+                    self.counters["rejected"] += 1
+                    log.error("%s rejected %s: %s (kept in the spool)", self.name,
+                              manifest.name, result.reason)
+            self._wake.wait(5.0)

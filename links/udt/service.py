@@ -1,0 +1,186 @@
+"""What the ``send-image`` and ``receive-images`` commands run. Does file and network I/O.
+
+``send_image`` hashes a file, builds its manifest and sends it with resume. ``ImageService``
+is the receiving side of a vehicle → relay → operator chain: a UDT receiver writing into a
+journalled spool, an announcer publishing each verified file as ``ImageProduct`` /
+``ImageData`` / ``TransferStatus`` dicts, and one forwarder per downstream target.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+import threading
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from links.udt import products
+from links.udt.link import (
+    BulkReceiver,
+    BulkSender,
+    Forwarder,
+    ProgressFn,
+    TransferResult,
+    parse_address,
+)
+from links.udt.protocol import AtrMetadata, Backoff, Manifest, check_file_name, transfer_id_for
+from links.udt.spool import Spool
+
+log = logging.getLogger(__name__)
+
+PublishFn = Callable[[str, dict[str, Any]], None]
+"""``publish(topic, sample_dict)``, e.g. ``DdsBridge.publish``."""
+
+_FORMATS = {
+    ".png": "png", ".jpg": "jpeg", ".jpeg": "jpeg", ".tif": "tiff", ".tiff": "tiff",
+    ".bmp": "bmp", ".gif": "gif", ".pgm": "pgm", ".ppm": "ppm", ".xtf": "xtf",
+}
+
+
+def _address(value: str | tuple[str, int]) -> tuple[str, int]:
+    return parse_address(value) if isinstance(value, str) else value
+
+
+def manifest_for_file(
+    path: str | os.PathLike[str],
+    *,
+    vehicle_id: str,
+    image_format: str | None = None,
+    capture_time: float | None = None,
+    atr: AtrMetadata | None = None,
+) -> Manifest:
+    """Hash ``path`` and describe it; the transfer id is stable so a re-run resumes."""
+    p = Path(path)
+    digest = hashlib.sha256()
+    size = 0
+    with open(p, "rb") as fh:
+        while chunk := fh.read(1 << 20):
+            digest.update(chunk)
+            size += len(chunk)
+    name = check_file_name(p.name)
+    sha = digest.hexdigest()
+    fmt = image_format or _FORMATS.get(p.suffix.lower(), "raw")
+    ctime = p.stat().st_mtime if capture_time is None else capture_time
+    return Manifest.from_mapping({
+        **Manifest(transfer_id_for(vehicle_id, name, sha), vehicle_id, name, size, sha, fmt,
+                   ctime, atr).to_dict(),
+    })
+
+
+def send_image(
+    path: str | os.PathLike[str],
+    to: str | tuple[str, int],
+    *,
+    vehicle_id: str = "vehicle",
+    max_rate_bps: int | None = None,
+    progress: ProgressFn | None = None,
+    give_up_after: float | None = 60.0,
+    backoff: Backoff | None = None,
+    manifest: Manifest | None = None,
+    stop: threading.Event | None = None,
+) -> TransferResult:
+    """Send one file and wait for the receipt; ``result.ok`` only if the hash was confirmed."""
+    m = manifest or manifest_for_file(path, vehicle_id=vehicle_id)
+    sender = BulkSender(
+        _address(to), max_rate_bps=max_rate_bps, progress=progress,
+        give_up_after=give_up_after, backoff=backoff, stop=stop,
+    )
+    return sender.send_file(path, m)
+
+
+class ImageService:
+    """Receive images into ``out_dir``, announce them, and forward them downstream.
+
+    The spool lives in ``spool_dir`` (default ``<out_dir>/.spool``); verified files appear
+    as ``<out_dir>/<vehicle_id>/<name>``. ``forward`` lists ``HOST:PORT`` receivers each
+    file must reach; ``publish`` gets every ``ImageProduct``/``ImageData``/``TransferStatus``.
+    """
+
+    def __init__(
+        self,
+        out_dir: str | os.PathLike[str],
+        listen: str | tuple[str, int] = ("127.0.0.1", 0),
+        *,
+        spool_dir: str | os.PathLike[str] | None = None,
+        forward: Sequence[str | tuple[str, int]] = (),
+        quota_bytes: int | None = None,
+        publish: PublishFn | None = None,
+        publish_data: bool = True,
+        max_rate_bps: int | None = None,
+        idle_timeout: float = 30.0,
+        forward_backoff: Backoff | None = None,
+    ) -> None:
+        self.out_dir = Path(out_dir)
+        targets = [_address(t) for t in forward]
+        self.spool = Spool(
+            spool_dir or self.out_dir / ".spool", quota_bytes=quota_bytes,
+            forward_targets=tuple(f"{h}:{p}" for h, p in targets), deliver_dir=self.out_dir,
+        )
+        self.publish = publish
+        self.publish_data = publish_data
+        self.receiver = BulkReceiver(
+            self.spool, _address(listen), on_verified=self._verified, on_status=self._status,
+            idle_timeout=idle_timeout,
+        )
+        self.forwarders = [
+            Forwarder(self.spool, t, max_rate_bps=max_rate_bps, backoff=forward_backoff)
+            for t in targets
+        ]
+        self._rates: dict[str, tuple[float, int]] = {}
+        self._publish_lock = threading.Lock()
+
+    @property
+    def address(self) -> tuple[str, int]:
+        return self.receiver.address
+
+    def start(self) -> ImageService:
+        self.receiver.start()
+        for f in self.forwarders:
+            f.start()
+        return self
+
+    def stop(self) -> None:
+        """Stop serving and forwarding; everything received stays in the spool (idempotent)."""
+        self.receiver.stop()
+        for f in self.forwarders:
+            f.stop()
+        self.spool.close()
+
+    def __enter__(self) -> ImageService:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def _emit(self, topic: str, sample: dict[str, Any]) -> None:
+        if self.publish is not None:
+            with self._publish_lock:  # connections run on several threads; publish is not
+                self.publish(topic, sample)
+
+    def _status(self, status: dict[str, Any]) -> None:
+        now = time.time()
+        tid = status["transfer_id"]
+        rate = 0.0
+        prev = self._rates.get(tid)
+        if prev is not None and now > prev[0]:
+            rate = 8.0 * max(0, status["bytes_received"] - prev[1]) / (now - prev[0])
+        self._rates[tid] = (now, status["bytes_received"])
+        if status["state"] in ("verified", "failed", "refused"):
+            self._rates.pop(tid, None)
+        self._emit(products.TRANSFER_STATUS, products.transfer_status(status, now=now,
+                                                                      rate_bps=rate))
+
+    def _verified(self, manifest: Manifest, path: Path) -> None:
+        self._emit(products.IMAGE_PRODUCT, products.image_product(manifest))
+        if self.publish is not None and self.publish_data:
+            count = products.chunk_count(manifest.size)
+            with open(path, "rb") as fh:
+                for index in range(count):
+                    data = fh.read(products.BUS_CHUNK)
+                    self._emit(products.IMAGE_DATA,
+                               products.image_data(manifest, index, count, data))
+        for f in self.forwarders:
+            f.wake()

@@ -1,0 +1,73 @@
+"""Table-driven tests of the core translator: vehicle changes and reports -> samples."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from edge_vis.engine.actions import Publish
+from edge_vis.jaus.address import JausAddress
+from edge_vis.translator import TranslatorContext, VehicleView
+from translators.core import CoreTranslator
+
+BASE = VehicleView(
+    "SimulatedVehicle-126", 126, name="SimulatedVehicle", vehicle_type="VEHICLE",
+    address=JausAddress(126, 1, 199),
+    services=(("urn:jaus:jss:mobility:LocalPoseSensor", "1.0"),), online=True,
+    state="STANDBY", link="radio", last_seen=5.0, last_seen_ms=1_700_000_005_000,
+)
+
+
+def ctx(**changes: Any) -> TranslatorContext:
+    from dataclasses import replace
+
+    return TranslatorContext(now=5.0, timestamp_ms=1_700_000_005_000,
+                             relay_id=JausAddress(42, 1, 1), vehicle=replace(BASE, **changes))
+
+
+CASES = [
+    pytest.param("identified", {}, "VehicleIdentification", {
+        "vehicle_id": "SimulatedVehicle-126", "name": "SimulatedVehicle", "jaus_subsystem": 126,
+        "jaus_address": "126.1.199", "vehicle_type": "VEHICLE",
+        "services": [{"uri": "urn:jaus:jss:mobility:LocalPoseSensor", "version": "1.0"}]},
+        id="identification"),
+    pytest.param("online", {}, "VehicleStatus", {
+        "vehicle_id": "SimulatedVehicle-126", "state": "STANDBY", "link": "radio",
+        "online": True, "last_seen_ms": 1_700_000_005_000}, id="online"),
+    pytest.param("offline", {"online": False, "state": "OFFLINE"}, "VehicleStatus", {
+        "vehicle_id": "SimulatedVehicle-126", "state": "OFFLINE", "link": "radio",
+        "online": False, "last_seen_ms": 1_700_000_005_000}, id="offline"),
+    pytest.param("control", {}, "ControlStatus", {
+        "vehicle_id": "SimulatedVehicle-126", "operator_id": "", "authority": 0,
+        "state": "FREE", "rejected_commands": 0, "last_rejection": ""}, id="free"),
+    pytest.param("control", {"controller": "op1", "controller_authority": 7,
+                             "jaus_control": "controlled"}, "ControlStatus", {
+        "vehicle_id": "SimulatedVehicle-126", "operator_id": "op1", "authority": 7,
+        "state": "CONTROLLED", "rejected_commands": 0, "last_rejection": ""}, id="held"),
+    pytest.param("control", {"controller": "op1", "controller_authority": 7,
+                             "jaus_control": "requesting", "rejected_commands": 3,
+                             "last_rejection": "SetWrenchEffort from op2 refused"},
+                 "ControlStatus", {
+        "vehicle_id": "SimulatedVehicle-126", "operator_id": "op1", "authority": 7,
+        "state": "REQUESTED", "rejected_commands": 3,
+        "last_rejection": "SetWrenchEffort from op2 refused"}, id="requested-with-rejections"),
+]
+
+
+@pytest.mark.parametrize(("change", "view", "topic", "sample"), CASES)
+def test_vehicle_change_to_sample(change: str, view: dict[str, Any], topic: str,
+                                  sample: dict[str, Any]) -> None:
+    actions = CoreTranslator().on_vehicle(change, ctx(**view))
+    assert actions == [Publish(topic, sample)]
+
+
+@pytest.mark.parametrize("name", ["ReportStatus", "ReportHeartbeatPulse"])
+def test_status_and_heartbeat_publish_vehicle_status(name: str) -> None:
+    actions = CoreTranslator().on_message(name, {"status": 2, "reserved": 0}, ctx())
+    assert [a.topic for a in actions if isinstance(a, Publish)] == ["VehicleStatus"]
+    assert actions[0].sample["state"] == "STANDBY"
+
+
+def test_status_change_is_not_published_twice() -> None:
+    assert CoreTranslator().on_vehicle("status", ctx()) == []

@@ -1,0 +1,93 @@
+"""The ``core`` translator: vehicle identity, status, control status and heartbeat. No I/O.
+
+Publishes, from the engine's view of each vehicle:
+
+* ``VehicleIdentification`` when a vehicle is identified or its services change;
+* ``VehicleStatus`` when it comes online, goes offline, on every ReportStatus and every
+  ReportHeartbeatPulse (so ``last_seen_ms`` moves while the vehicle is alive);
+* ``ControlStatus`` when operator arbitration or JAUS access control changes, including
+  refused commands (``rejected_commands``, ``last_rejection``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from edge_vis.engine.actions import Action, Publish
+from edge_vis.translator import Translator, TranslatorContext, VehicleView
+
+#: ControlStatus.state for the relay's JAUS control while an operator holds the vehicle.
+_HELD_STATES = {
+    "controlled": "CONTROLLED",
+    "requesting": "REQUESTED",
+    "refused": "REFUSED",
+    "releasing": "RELEASING",
+    "none": "REQUESTED",
+}
+
+
+def identification_sample(view: VehicleView) -> dict[str, Any]:
+    """VehicleIdentification for ``view``."""
+    return {
+        "vehicle_id": view.vehicle_id,
+        "name": view.name,
+        "jaus_subsystem": view.subsystem,
+        "jaus_address": str(view.address) if view.address is not None else "",
+        "vehicle_type": view.vehicle_type,
+        "services": [{"uri": uri, "version": version} for uri, version in view.services],
+    }
+
+
+def status_sample(view: VehicleView) -> dict[str, Any]:
+    """VehicleStatus for ``view``."""
+    return {
+        "vehicle_id": view.vehicle_id,
+        "state": view.state,
+        "link": view.link,
+        "online": view.online,
+        "last_seen_ms": view.last_seen_ms,
+    }
+
+
+def control_sample(view: VehicleView) -> dict[str, Any]:
+    """ControlStatus for ``view``: FREE, or the holder and the relay's JAUS control state."""
+    if view.controller:
+        state = _HELD_STATES.get(view.jaus_control, view.jaus_control.upper())
+    else:
+        state = "RELEASING" if view.jaus_control == "releasing" else "FREE"
+    return {
+        "vehicle_id": view.vehicle_id,
+        "operator_id": view.controller,
+        "authority": view.controller_authority,
+        "state": state,
+        "rejected_commands": view.rejected_commands,
+        "last_rejection": view.last_rejection,
+    }
+
+
+class CoreTranslator(Translator):
+    """Core service set (AS5710) -> vehicle identity, status and control topics."""
+
+    name = "core"
+    messages = ("ReportStatus", "ReportHeartbeatPulse")
+    publishes = ("VehicleIdentification", "VehicleStatus", "ControlStatus")
+
+    def on_message(
+        self, name: str, fields: Mapping[str, Any], ctx: TranslatorContext
+    ) -> list[Action]:
+        if ctx.vehicle is None:
+            return []
+        return [Publish("VehicleStatus", status_sample(ctx.vehicle))]
+
+    def on_vehicle(self, change: str, ctx: TranslatorContext) -> list[Action]:
+        view = ctx.vehicle
+        if view is None:
+            return []
+        if change == "identified":
+            return [Publish("VehicleIdentification", identification_sample(view))]
+        if change in ("online", "offline"):  # status changes arrive as ReportStatus
+            return [Publish("VehicleStatus", status_sample(view))]
+        if change == "control":
+            return [Publish("ControlStatus", control_sample(view))]
+        return []
