@@ -9,8 +9,9 @@ no ``name``/``fields`` and keeps its raw ``body``. Decoding errors of a known co
 :class:`~edge_vis.errors.DecodeError` naming the code, field path and body offset.
 
 Codes are unique in a catalogue: adding a different definition for a code that is taken
-raises :class:`~edge_vis.errors.PluginConflictError` naming both sets and sources (the
-same definition declared again, e.g. by two services of one set, is accepted once).
+raises :class:`~edge_vis.errors.PluginConflictError` naming both sets and sources. The
+same definition declared again (same name and wire layout, whatever its labels and
+documentation say) is accepted once.
 Names are not unique across sets — ``ExecuteList`` is 0x041E in mobility and 0x061E in
 manipulator — so :meth:`Catalogue.by_name` returns the first one added unless a set is
 named.
@@ -32,7 +33,7 @@ from typing import Any
 
 from edge_vis import plugins
 from edge_vis.codec.engine import MessageCodec, compile_message
-from edge_vis.codec.layout import check_message
+from edge_vis.codec.layout import check_message, wire_signature
 from edge_vis.codec.types import Enum, Int, JausMessage, MessageDef, Record
 from edge_vis.errors import (
     DecodeError,
@@ -124,8 +125,9 @@ class Catalogue:
                 )
             problems = check_message(defn)
             if problems:
+                code = f"0x{defn.code:04X}" if isinstance(defn.code, int) else repr(defn.code)
                 raise PluginLoadError(
-                    f"message {defn.name} (0x{defn.code:04X}){where}: " + "; ".join(problems)
+                    f"message {defn.name} ({code}){where}: " + "; ".join(problems)
                 )
             earlier = incoming.get(defn.code)
             if earlier is not None and not _same(earlier, defn):
@@ -311,7 +313,12 @@ class Catalogue:
 
 
 def _same(a: MessageDef, b: MessageDef) -> bool:
-    return a is b or (a.code == b.code and a.name == b.name and a.body == b.body)
+    """Same code, name and wire layout (documentation such as labels may differ)."""
+    if a is b:
+        return True
+    if a.code != b.code or a.name != b.name:
+        return False
+    return a.body == b.body or wire_signature(a.body) == wire_signature(b.body)
 
 
 def _who(defn: MessageDef, source: str) -> str:

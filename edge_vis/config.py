@@ -1,7 +1,8 @@
 """Deployment and vehicle profiles: TOML -> validated frozen dataclasses.
 
-Only :func:`load_profile` and :func:`load_default_profile` read files; everything else
-works on mappings already parsed, so it is testable without a disk.
+Reads files: :func:`load_profile` the profile itself, :func:`from_mapping` the vehicle
+profiles a deployment references with ``file =`` (and it checks that ``catalogue.jsidl``
+files exist). A mapping without such references is validated without touching the disk.
 
 A *deployment profile* describes one relay: its JAUS address and authority, its radio
 links, the DDS domain, which translators run, the discovery/liveness/command timing, the
@@ -158,10 +159,15 @@ class DdsProfile:
 
 @dataclass(frozen=True, slots=True)
 class TranslatorSelection:
-    """Which translators run. ``enabled`` of ``("*",)`` means every installed one."""
+    """Which translators run. ``enabled`` of ``("*",)`` means every installed one.
+
+    ``options`` are the sub-tables of ``[translators]`` by translator name (e.g.
+    ``[[translators.generic.mappings]]``); the translator validates its own table.
+    """
 
     enabled: tuple[str, ...] = ("*",)
     disabled: tuple[str, ...] = ()
+    options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
 
     def selects(self, name: str) -> bool:
         """True when translator ``name`` should run."""
@@ -458,8 +464,13 @@ def from_mapping(data: Mapping[str, Any], *, file: str = "",
     dds_t.finish()
 
     tr = root.table("translators")
+    translator_options: dict[str, Mapping[str, Any]] = {}
+    for key, value in tr.data.items():
+        if key not in ("enabled", "disabled") and isinstance(value, Mapping):
+            tr.used.add(key)  # a translator's own table, checked by the translator
+            translator_options[key] = dict(value)
     translators = TranslatorSelection(_str_list(tr, "enabled", ("*",)),
-                                      _str_list(tr, "disabled", ()))
+                                      _str_list(tr, "disabled", ()), translator_options)
     tr.finish()
 
     d = root.table("discovery")

@@ -413,16 +413,23 @@ class Router:
     # -- time ------------------------------------------------------------------------------
     def next_deadline(self) -> float | None:
         """When :meth:`on_timer` has work next, or ``None``."""
-        deadlines = [p.deadline for p in self._pending.values()]
-        held = self._reassembler.bytes_held if self._reassembler is not None else 0
-        if self._next_sweep is not None and (self._learned or self._seen or held):
-            deadlines.append(self._next_sweep)
+        best: float | None = None
+        if self._pending:
+            best = min(p.deadline for p in self._pending.values())
+        sweep = self._next_sweep
+        if sweep is not None and (best is None or sweep < best) and (
+            self._learned or self._seen
+            or (self._reassembler is not None and self._reassembler.bytes_held)
+        ):
+            best = sweep
         for state in self._links.values():
             if state.queued_bytes and not state.busy and state.bandwidth_bps:
                 deficit = -state.tokens if state.tokens < 0 else 0.0
                 base = state.refilled if state.refilled is not None else 0.0
-                deadlines.append(base + deficit * 8 / state.bandwidth_bps)
-        return min(deadlines) if deadlines else None
+                due = base + deficit * 8 / state.bandwidth_bps
+                if best is None or due < best:
+                    best = due
+        return best
 
     def on_timer(self, now: float) -> list[Action]:
         """Retries, queue draining, expiry of peers, duplicates and partial messages."""
@@ -539,7 +546,7 @@ class Router:
             self.counters["dropped: unknown link"] += len(packets)
             return
         mtu = state.mtu
-        if any(len(p.payload) > mtu for p in packets):
+        if max(len(p.payload) for p in packets) > mtu:
             fits = [p for p in packets if len(p.payload) <= mtu]
             dropped = len(packets) - len(fits)
             state.drops["exceeds MTU"] += dropped

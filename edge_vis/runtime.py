@@ -153,9 +153,13 @@ class Runtime:
 
     def _open_dds(self) -> Any:
         from edge_vis.dds.bridge import DdsBridge  # imported lazily: cyclonedds is optional
+        from edge_vis.dds.topics import TopicRegistry
 
         assert self.engine is not None
-        bridge = DdsBridge(self.profile.dds.domain, self.profile.dds.partitions)
+        registry = TopicRegistry.standard()
+        for translator in self.engine.manager.translators:
+            registry.register_all(translator.topic_types, owner=translator.name)
+        bridge = DdsBridge(self.profile.dds.domain, self.profile.dds.partitions, registry)
         published, subscribed = self.engine.manager.topics()
         bridge.open_writers([*published, "LinkStatus"])
         subscribed = [t for t in dict.fromkeys(subscribed)]
@@ -413,8 +417,7 @@ def _catalogue_for(profile: RelayProfile) -> Catalogue:
         return catalogue
     from edge_vis.jsidl import load_jsidl
 
-    extended = Catalogue()
-    extended.add(list(catalogue), source="built-in")
+    extended = catalogue.copy()
     extended.add(load_jsidl(list(profile.jsidl)), source="profile JSIDL")
     return extended
 

@@ -110,6 +110,9 @@ class Translator(ABC):  # noqa: B024 - every hook has a harmless default
     publishes: ClassVar[tuple[str, ...]] = ()
     subscribes: ClassVar[tuple[str, ...]] = ()
     controlled_services: ClassVar[tuple[str, ...]] = ()
+    #: DDS topics of this translator's own types (``edge_vis.dds.topics.TopicSpec``), for
+    #: custom translators whose data fits none of the shipped model's topics
+    topic_types: ClassVar[tuple[Any, ...]] = ()
 
     def on_message(
         self, name: str, fields: Mapping[str, Any], ctx: TranslatorContext

@@ -21,7 +21,7 @@ from edge_vis.translator import Translator, TranslatorContext, VehicleView
 _HELD_STATES = {
     "controlled": "CONTROLLED",
     "requesting": "REQUESTED",
-    "refused": "REFUSED",
+    "refused": "REJECTED",
     "releasing": "RELEASING",
     "none": "REQUESTED",
 }
@@ -50,12 +50,13 @@ def status_sample(view: VehicleView) -> dict[str, Any]:
     }
 
 
-def control_sample(view: VehicleView) -> dict[str, Any]:
-    """ControlStatus for ``view``: FREE, or the holder and the relay's JAUS control state."""
+def control_sample(view: VehicleView, timestamp_ms: int) -> dict[str, Any]:
+    """ControlStatus for ``view``: NOT_CONTROLLED, or the holder and the relay's JAUS
+    control state (REQUESTED, CONTROLLED, REJECTED by the vehicle, RELEASING)."""
     if view.controller:
         state = _HELD_STATES.get(view.jaus_control, view.jaus_control.upper())
     else:
-        state = "RELEASING" if view.jaus_control == "releasing" else "FREE"
+        state = "RELEASING" if view.jaus_control == "releasing" else "NOT_CONTROLLED"
     return {
         "vehicle_id": view.vehicle_id,
         "operator_id": view.controller,
@@ -63,6 +64,7 @@ def control_sample(view: VehicleView) -> dict[str, Any]:
         "state": state,
         "rejected_commands": view.rejected_commands,
         "last_rejection": view.last_rejection,
+        "timestamp_ms": timestamp_ms,
     }
 
 
@@ -89,5 +91,5 @@ class CoreTranslator(Translator):
         if change in ("online", "offline"):  # status changes arrive as ReportStatus
             return [Publish("VehicleStatus", status_sample(view))]
         if change == "control":
-            return [Publish("ControlStatus", control_sample(view))]
+            return [Publish("ControlStatus", control_sample(view, ctx.timestamp_ms))]
         return []

@@ -13,7 +13,10 @@ once into Python source that is ``exec``-ed into a private namespace:
 * a record with a presence vector is compiled **per presence-vector value**, lazily, on
   first sight of that value; the specialised function has no branches at all. The decoder
   reads the vector with byte indexing and the specialised struct skips it as padding, so a
-  full ReportGlobalPose is one ``unpack_from`` plus one dict display;
+  full ReportGlobalPose is one ``unpack_from`` plus one dict display. After
+  :data:`PV_CACHE_LIMIT` distinct values of one record (real peers use a handful), further
+  values are handled by the reference walker instead, so line noise cannot make the codec
+  generate code without bound;
 * a list of fixed-size elements decodes with ``Struct.iter_unpack`` in a comprehension;
 * variable-length parts (counted strings, bytes, embedded messages, lists of variable
   elements, variants) end the current struct run and continue with plain slicing.
@@ -33,6 +36,7 @@ import struct
 from collections.abc import Callable
 from typing import Any
 
+from edge_vis.codec import reference
 from edge_vis.codec.layout import (
     fixed_size,
     min_size,
@@ -58,6 +62,7 @@ from edge_vis.codec.types import (
     Variant,
     VarString,
 )
+from edge_vis.errors import DecodeError, EncodeError
 
 
 class Reject(Exception):
@@ -65,15 +70,19 @@ class Reject(Exception):
 
 
 #: what a generated decoder may raise on bad input
-DECODE_ERRORS = (struct.error, IndexError, KeyError, ValueError, TypeError, OverflowError, Reject)
+DECODE_ERRORS = (
+    struct.error, IndexError, KeyError, ValueError, TypeError, OverflowError, Reject,
+    DecodeError,
+)
 #: what a generated encoder may raise on a bad value
 ENCODE_ERRORS = (
     struct.error, IndexError, KeyError, ValueError, TypeError, OverflowError,
-    AttributeError, Reject,
+    AttributeError, Reject, EncodeError,
 )
 
-#: specialised functions kept per presence-vector record; beyond this, compiled per call
-PV_CACHE_LIMIT = 256
+#: presence-vector values compiled per record; further values are walked by the reference
+#: code, so noise cannot make the codec compile (and keep) code without bound
+PV_CACHE_LIMIT = 64
 
 Decoder = Callable[[bytes, int], tuple[Any, int]]
 Encoder = Callable[[Any, bytearray], None]
@@ -129,16 +138,6 @@ class Compiler:
 
     # -- decoders ------------------------------------------------------------------------
 
-    def decoder(self, ft: FieldType) -> Decoder:
-        """A function ``(buf, pos) -> (value, pos)`` without error handling."""
-        fname = self.name("dec")
-        lines = [f"def {fname}(buf, pos):"]
-        block = _DecBlock(self, lines, 1)
-        expr = block.dec(ft)
-        block.flush()
-        block.emit(f"return {expr}, {block.at()}")
-        return self.define(lines, fname)
-
     def top_decoder(self, ft: FieldType, slow: Callable[..., Any], whole: bool) -> Any:
         """The entry point: coerces the buffer, decodes, falls back to ``slow`` on error.
 
@@ -159,6 +158,8 @@ class Compiler:
         else:
             lines.append("    start = pos")
         lines.append("    try:")
+        if not whole:
+            lines += ["        if pos < 0:", "            raise Reject"]
         block = _DecBlock(self, lines, 2)
         expr = block.dec(ft)
         block.flush()
@@ -182,12 +183,15 @@ class Compiler:
         cache: dict[int, Decoder] = {}
         n_opt = len(optional_fields(rec))
 
+        def walk(buf: bytes, pos: int) -> tuple[Any, int]:
+            return reference.decode_type(rec, buf, pos)
+
         def miss(pv: int) -> Decoder:
             if pv >> n_opt:
                 raise Reject
-            fn = self._specialised_decoder(rec, pv)
-            if len(cache) < PV_CACHE_LIMIT:
-                cache[pv] = fn
+            if len(cache) >= PV_CACHE_LIMIT:
+                return walk
+            fn = cache[pv] = self._specialised_decoder(rec, pv)
             return fn
 
         names = (self.const(cache, "PVC"), self.const(miss, "PVM"))
@@ -226,16 +230,6 @@ class Compiler:
 
     # -- encoders ------------------------------------------------------------------------
 
-    def encoder(self, ft: FieldType) -> Encoder:
-        """A function ``(value, out)`` appending to ``out``, without error handling."""
-        fname = self.name("enc")
-        lines = [f"def {fname}(v, out):"]
-        block = _EncBlock(self, lines, 1)
-        block.enc(ft, "v")
-        block.flush()
-        lines.append("    return None")
-        return self.define(lines, fname)
-
     def top_encoder(self, ft: FieldType, slow: Callable[..., Any], whole: bool) -> Any:
         """The entry point: encodes, falls back to ``slow`` on error.
 
@@ -247,10 +241,16 @@ class Compiler:
         errors = self.const(ENCODE_ERRORS, "ERR")
         if whole and isinstance(ft, Record) and ft.pv is not None:
             cache, miss = self.pv_record_encoder(ft, top=True)
+            all_pv = (1 << len(optional_fields(ft))) - 1
             lines = [
                 f"def {fname}(r):",
                 "    try:",
-                "        " + f"pv = {_pv_expr(ft, 'r')}",
+                # every field present (usual for reports): skip the key tests; if a key is
+                # unknown and another missing, the specialised function raises KeyError
+                f"        if len(r) == {len(ft.fields)}:",
+                f"            pv = {all_pv}",
+                "        else:",
+                "            " + f"pv = {_pv_expr(ft, 'r')}",
                 f"        fn = {cache}.get(pv)",
                 "        if fn is None:",
                 f"            fn = {miss}(pv)",
@@ -292,10 +292,18 @@ class Compiler:
         self._keep.append(rec)
         cache: dict[int, Any] = {}
 
+        def walk(r: Any, out: bytearray | None = None) -> bytes | None:
+            data = bytearray()
+            reference.encode_type(rec, r, data)
+            if out is None:
+                return bytes(data)
+            out += data
+            return None
+
         def miss(pv: int) -> Any:
-            fn = self._specialised_encoder(rec, pv, top)
-            if len(cache) < PV_CACHE_LIMIT:
-                cache[pv] = fn
+            if len(cache) >= PV_CACHE_LIMIT:
+                return walk
+            fn = cache[pv] = self._specialised_encoder(rec, pv, top)
             return fn
 
         names = (self.const(cache, "EPC"), self.const(miss, "EPM"))

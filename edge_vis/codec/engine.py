@@ -16,7 +16,10 @@ raises the error with the message code, the field path (``elements[3].latitude``
 decoding, the byte offset counted from the first byte of the body. Whatever bytes arrive,
 decoding raises nothing but :class:`~edge_vis.errors.DecodeError`; bad values raise
 :class:`~edge_vis.errors.EncodeError`; a broken *definition* raises ``ValueError`` when it
-is compiled.
+is compiled. The rules beyond the type table of :mod:`edge_vis.codec.types` (presence
+bits without a field, absurd list counts, the scaled range, ``None`` values, ...) are
+listed in :mod:`edge_vis.codec.reference`; the scaling convention is
+:func:`~edge_vis.codec.layout.scaling`.
 """
 
 from __future__ import annotations

@@ -7,11 +7,13 @@ they cannot disagree on, for instance, the bias of a signed scaled integer.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 
 from edge_vis.codec.types import (
     BitField,
     Enum,
+    Field,
     FieldType,
     FixedBytes,
     FixedString,
@@ -43,8 +45,9 @@ def scaling(scaled: Scaled) -> tuple[float, float]:
     JSIDL field in the JSS or IOP sets combines a signed type with a scale range.)
     """
     raw = scaled.raw
-    scale = (scaled.upper - scaled.lower) / ((1 << raw.bits) - 1)
-    bias = (scaled.upper + scaled.lower) / 2 if raw.signed else float(scaled.lower)
+    lower, upper = float(scaled.lower), float(scaled.upper)
+    scale = (upper - lower) / ((1 << raw.bits) - 1)
+    bias = (upper + lower) / 2 if raw.signed else lower
     return scale, bias
 
 
@@ -125,6 +128,41 @@ def min_size(ft: FieldType) -> int:
     raise TypeError(f"not a field type: {ft!r}")
 
 
+def wire_signature(ft: FieldType) -> tuple[object, ...]:
+    """What decides the wire form and the decoded keys of ``ft``, without documentation.
+
+    Two types with equal signatures encode and decode identically: enumeration labels,
+    units, JSIDL names and record names are left out.
+    """
+    if isinstance(ft, Int | Float):
+        return (type(ft).__name__, ft.bits, getattr(ft, "signed", True))
+    if isinstance(ft, Scaled):
+        return ("Scaled", wire_signature(ft.raw), float(ft.lower), float(ft.upper))
+    if isinstance(ft, Enum):
+        return ("Enum", wire_signature(ft.raw))
+    if isinstance(ft, BitField):
+        subs = tuple((s.name, s.lo, s.hi) for s in ft.subfields)
+        return ("BitField", wire_signature(ft.raw), subs)
+    if isinstance(ft, FixedString | FixedBytes):
+        return (type(ft).__name__, ft.length)
+    if isinstance(ft, VarString):
+        return ("VarString", wire_signature(ft.count), ft.max_length)
+    if isinstance(ft, VarBytes | JausMessage):
+        return (type(ft).__name__, wire_signature(ft.count))
+    if isinstance(ft, VarFormat):
+        return ("VarFormat", wire_signature(ft.format), wire_signature(ft.count))
+    if isinstance(ft, Record):
+        pv = wire_signature(ft.pv) if ft.pv is not None else None
+        members = tuple((f.name, f.optional, wire_signature(f.type)) for f in ft.fields)
+        return ("Record", pv, members)
+    if isinstance(ft, List):
+        return ("List", wire_signature(ft.count), wire_signature(ft.element))
+    if isinstance(ft, Variant):
+        alts = tuple((a.name, wire_signature(a.type)) for a in ft.alternatives)
+        return ("Variant", wire_signature(ft.tag), tag_values(ft), alts)
+    raise TypeError(f"not a field type: {ft!r}")
+
+
 def children(ft: FieldType) -> Iterator[tuple[str, FieldType]]:
     """``(path segment, type)`` of the types nested directly in ``ft``."""
     if isinstance(ft, Record):
@@ -135,6 +173,18 @@ def children(ft: FieldType) -> Iterator[tuple[str, FieldType]]:
     elif isinstance(ft, Variant):
         for alt in ft.alternatives:
             yield alt.name, alt.type
+
+
+def _is_int(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _is_real(value: object) -> bool:
+    return (
+        isinstance(value, int | float)
+        and not isinstance(value, bool)
+        and math.isfinite(value)
+    )
 
 
 def check_type(ft: FieldType, path: str = "") -> list[str]:
@@ -154,7 +204,9 @@ def check_type(ft: FieldType, path: str = "") -> list[str]:
         if isinstance(ft, Float) and ft.bits not in (32, 64):
             bad(f"float width {ft.bits} is not 32 or 64")
     elif isinstance(ft, Scaled):
-        if not ft.upper > ft.lower:
+        if not all(_is_real(x) for x in (ft.lower, ft.upper)):
+            bad(f"scale range [{ft.lower!r}, {ft.upper!r}] needs finite numbers")
+        elif not ft.upper > ft.lower:
             bad(f"scale range [{ft.lower}, {ft.upper}] is empty")
     elif isinstance(ft, Enum):
         pass
@@ -163,20 +215,32 @@ def check_type(ft: FieldType, path: str = "") -> list[str]:
             bad("bit field on a signed integer")
         seen: set[str] = set()
         for sub in ft.subfields:
-            if not 0 <= sub.lo <= sub.hi < ft.raw.bits:
+            if not (_is_int(sub.lo) and _is_int(sub.hi) and 0 <= sub.lo <= sub.hi < ft.raw.bits):
                 bad(f"sub-field {sub.name} bits {sub.lo}-{sub.hi} outside {ft.raw.bits} bits")
             if sub.name in seen:
                 bad(f"duplicate sub-field {sub.name}")
             seen.add(sub.name)
     elif isinstance(ft, FixedString | FixedBytes):
-        if ft.length < 0:
-            bad(f"negative length {ft.length}")
+        if not _is_int(ft.length) or ft.length < 0:
+            bad(f"length {ft.length!r} is not a non-negative integer")
     elif isinstance(ft, VarString | VarBytes | JausMessage | VarFormat | List):
         if not isinstance(ft.count, Int) or ft.count.signed:
             bad("count must be an unsigned Int")
         if isinstance(ft, VarFormat) and not isinstance(ft.format, Enum):
             bad("variable-format field needs an Enum format")
+        if (
+            isinstance(ft, VarString)
+            and ft.max_length is not None
+            and (not _is_int(ft.max_length) or ft.max_length < 0)
+        ):
+            bad(f"max_length {ft.max_length!r} is not a non-negative integer")
     elif isinstance(ft, Record):
+        if not all(isinstance(f, Field) and isinstance(f.name, str) for f in ft.fields):
+            bad("record members must be Fields with str names")
+            return problems
+        if ft.pv is not None and not isinstance(ft.pv, Int):
+            bad("presence vector must be an Int")
+            return problems
         names = [f.name for f in ft.fields]
         dupes = sorted({n for n in names if names.count(n) > 1})
         if dupes:
@@ -190,7 +254,13 @@ def check_type(ft: FieldType, path: str = "") -> list[str]:
             elif n_opt > ft.pv.bits:
                 bad(f"{n_opt} optional fields do not fit a {ft.pv.bits}-bit presence vector")
     elif isinstance(ft, Variant):
+        if not all(isinstance(a, Field) and isinstance(a.name, str) for a in ft.alternatives):
+            bad("variant alternatives must be Fields with str names")
+            return problems
         values = tag_values(ft)
+        if not all(_is_int(v) for v in values):
+            bad(f"tag values {values!r} are not all integers")
+            return problems
         if len(values) != len(ft.alternatives):
             bad("tag_values and alternatives differ in length")
         if len(set(values)) != len(values):

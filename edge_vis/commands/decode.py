@@ -74,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     if args.jsidl:
         from edge_vis.jsidl import load_jsidl
 
-        catalogue = catalogue.copy() if hasattr(catalogue, "copy") else catalogue
+        catalogue = catalogue.copy()
         catalogue.add(load_jsidl([Path(p) for p in args.jsidl]), source="jsidl")
     out = _Output()
     port = None if args.all_ports else args.port
@@ -92,12 +92,13 @@ def _read_inputs(inputs: list[str]) -> Iterator[tuple[str, bytes]]:
     if not inputs or inputs == ["-"]:
         yield "stdin", sys.stdin.buffer.read()
         return
+    hex_args = [item for item in inputs if _HEX_RE.fullmatch(item.replace(" ", ""))]
+    if hex_args:  # one block, so that the fragments of a large message reassemble
+        yield "argument", "\n".join(hex_args).encode()
     for item in inputs:
         if item == "-":
             yield "stdin", sys.stdin.buffer.read()
-        elif _HEX_RE.fullmatch(item.replace(" ", "")):
-            yield "argument", item.encode()
-        else:
+        elif item not in hex_args:
             path = Path(item)
             if not path.exists():
                 raise DecodeError(f"{item!r} is neither hex nor an existing file")

@@ -92,8 +92,8 @@ def _check(defn: MessageDef, known: MessageDef | None) -> tuple[str, bool]:
     return f"DIFFERS from {known.name} in {known.service_set}", True
 
 
-def collect(args: argparse.Namespace) -> tuple[list[dict[str, Any]], int]:
-    """Rows for every message (filtered) and the number of conflicting JSIDL messages."""
+def collect(args: argparse.Namespace) -> list[dict[str, Any]]:
+    """A row for every known message and, with ``--jsidl``, every message of those files."""
     from edge_vis.catalogue import default_catalogue
 
     catalogue = default_catalogue()
@@ -102,17 +102,17 @@ def collect(args: argparse.Namespace) -> tuple[list[dict[str, Any]], int]:
     source_of = getattr(catalogue, "source", lambda code: "")
     rows = [_row(d, "built-in" if d.service_set in builtin else "plugin", source_of(d.code))
             for d in sorted(known.values(), key=lambda d: d.code)]
-    conflicts = 0
     if args.jsidl:
         from edge_vis.jsidl import load_jsidl
 
         files = ", ".join(args.jsidl)
         for defn in sorted(load_jsidl([Path(p) for p in args.jsidl]), key=lambda d: d.code):
             status, conflict = _check(defn, known.get(defn.code))
-            conflicts += conflict
-            rows.append(_row(defn, "jsidl", files, status))
+            row = _row(defn, "jsidl", files, status)
+            row["conflict"] = conflict
+            rows.append(row)
         rows.sort(key=lambda r: (r["code"], r["source"] == "jsidl"))
-    return rows, conflicts
+    return rows
 
 
 def _counts(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
@@ -140,7 +140,7 @@ def _print_text(rows: list[dict[str, Any]], counts: dict[str, dict[str, Any]]) -
 
 
 def run(args: argparse.Namespace) -> int:
-    rows, conflicts = collect(args)
+    rows = collect(args)
     if args.sets:
         available = {r["service_set"] for r in rows}
         unknown = [s for s in args.sets if s not in available]
@@ -150,6 +150,7 @@ def run(args: argparse.Namespace) -> int:
             return 2
         rows = [r for r in rows if r["service_set"] in args.sets]
     counts = _counts(rows)
+    conflicts = sum(1 for r in rows if r.get("conflict"))
     if args.json:
         print(json.dumps({"messages": rows, "sets": counts, "total": len(rows),
                           "conflicts": conflicts}, indent=2))

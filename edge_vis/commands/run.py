@@ -3,6 +3,8 @@
 With no ``--profile`` it runs the shipped default deployment profile; ``--link URL``
 (repeatable), ``--id S.N.C`` and ``--domain N`` override the profile, so a first try needs
 no file at all. SIGINT/SIGTERM stop it cleanly: events cancelled, control released.
+SIGHUP re-reads the profile (:mod:`edge_vis.reload`); under systemd the relay reports
+READY/WATCHDOG/STATUS/STOPPING (:mod:`edge_vis.service`).
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import asyncio
 import dataclasses
 import logging
 import signal
+from collections.abc import Callable
 from pathlib import Path
 
 from edge_vis.config import (
@@ -24,6 +27,7 @@ from edge_vis.config import (
 from edge_vis.errors import ConfigError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.runtime import MirrorOptions, Runtime
+from edge_vis.service import Supervisor
 
 NAME = "run"
 HELP = "run the relay: discover JAUS vehicles and translate them to and from DDS"
@@ -83,15 +87,25 @@ def run(args: argparse.Namespace) -> int:
     profile = build_profile(args)
     runtime = Runtime(profile, publisher_factory=None if args.no_dds else "dds",
                       mirror=_mirror(args))
-    asyncio.run(_main(runtime, args.duration))
+    asyncio.run(_main(runtime, args.duration, lambda: build_profile(args)))
     return 0
 
 
-async def _main(runtime: Runtime, duration: float | None) -> None:
+async def _main(runtime: Runtime, duration: float | None,
+                reload_profile: Callable[[], RelayProfile] | None = None) -> None:
     loop = asyncio.get_running_loop()
-    await runtime.start()
+    supervisor = Supervisor(runtime, reload_profile)  # systemd notify/watchdog, SIGHUP
+    try:
+        await runtime.start()
+    except Exception as exc:
+        supervisor.failed(exc)
+        raise
+    supervisor.started()
     for sig in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(sig, runtime.request_stop)
+        loop.add_signal_handler(sig, supervisor.stop)
     if duration is not None:
-        loop.call_later(duration, runtime.request_stop)
-    await runtime.wait_stopped()
+        loop.call_later(duration, supervisor.stop)
+    try:
+        await runtime.wait_stopped()
+    finally:
+        supervisor.close()

@@ -169,6 +169,12 @@ class DdsBridge:
         """The registered spec of ``topic`` (``KeyError`` listing known topics)."""
         return self.registry.get(topic)
 
+    def _converter(self, name: str) -> Converter:
+        converter = self._converters.get(name)
+        if converter is None:  # registered after the bridge was made
+            converter = self._converters[name] = converter_for(self.registry.get(name).type)
+        return converter
+
     def _topic(self, name: str) -> Topic[Any]:
         topic = self._topics.get(name)
         if topic is None:
@@ -204,7 +210,7 @@ class DdsBridge:
         instance a reliable write blocked longer than the QoS allows).
         """
         writer = self._writers.get(topic) or self._writer(topic)
-        data = self._converters[topic].to_struct(sample, topic)
+        data = self._converter(topic).to_struct(sample, topic)
         try:
             writer.write(data)
         except DDSException as exc:
@@ -219,7 +225,7 @@ class DdsBridge:
         """
         writer = self._writer(topic)
         try:
-            writer.dispose(self._converters[topic].key_of(key, topic))
+            writer.dispose(self._converter(topic).key_of(key, topic))
         except DDSException as exc:
             raise DdsError(f"disposing {key!r} on {topic!r} failed: {exc}") from exc
 
@@ -227,7 +233,7 @@ class DdsBridge:
         """Stop updating instance ``key`` of ``topic`` without declaring it gone."""
         writer = self._writer(topic)
         try:
-            writer.unregister_instance(self._converters[topic].key_of(key, topic))
+            writer.unregister_instance(self._converter(topic).key_of(key, topic))
         except DDSException as exc:
             raise DdsError(f"unregistering {key!r} on {topic!r} failed: {exc}") from exc
 
@@ -265,23 +271,19 @@ class DdsBridge:
         if loop is not None and on_sample is None:
             raise ValueError("a loop only makes sense with an on_sample callback")
         names = list(self.registry.inbound() if topics is None else topics)
+        specs = [self.registry.get(name) for name in names]  # KeyError before creating any
         added = []
         with self._lock:
             subscribed = {s.spec.name for s in self._subscriptions}
-            for name in names:
-                if name in subscribed:
-                    raise ValueError(f"topic {name!r} is already subscribed")
-                spec = self.registry.get(name)
-                reader = DataReader(
-                    self._subscriber, self._topic(name), qos=topic_qos(spec.kind, self.qos_settings)
-                )
+            twice = sorted({n for n in names if n in subscribed or names.count(n) > 1})
+            if twice:
+                raise ValueError(f"already subscribed: {', '.join(twice)}")
+            for spec in specs:
+                qos = topic_qos(spec.kind, self.qos_settings)
+                reader = DataReader(self._subscriber, self._topic(spec.name), qos=qos)
                 condition = ReadCondition(reader, _ANY_SAMPLE)
-                added.append(
-                    _Subscription(
-                        spec, reader, condition, self._converters[name], on_sample, loop
-                    )
-                )
-                subscribed.add(name)
+                converter = self._converter(spec.name)
+                added.append(_Subscription(spec, reader, condition, converter, on_sample, loop))
             self._subscriptions += tuple(added)
         if on_sample is not None:
             for sub in added:
@@ -311,10 +313,13 @@ class DdsBridge:
                 and sub.spec.kind is TopicKind.COMMAND
                 and now_ns - info.source_timestamp > self.max_command_age * 1e9
             ):
-                self.counters["stale_dropped"] += 1
-                log.warning(
-                    "dropped a %s sample %.3f s old (limit %.3f s)",
+                dropped = self.counters["stale_dropped"] = self.counters["stale_dropped"] + 1
+                # first drop and every 100th at WARNING: an unsynchronised clock floods
+                log.log(
+                    logging.WARNING if dropped % 100 == 1 else logging.DEBUG,
+                    "dropped a %s sample %.3f s old (limit %.3f s; %d dropped so far)",
                     sub.spec.name, (now_ns - info.source_timestamp) / 1e9, self.max_command_age,
+                    dropped,
                 )
                 continue
             out.append((sub.spec.name, sub.converter.to_dict(sample)))

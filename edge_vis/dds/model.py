@@ -451,6 +451,313 @@ class ImageData(IdlStruct, typename="edge_vis::ImageData"):
     data: sequence[uint8]
 
 
+# --------------------------------------------------------------------------- translator data
+# (vehicle subsystems beyond pose and velocity: manipulators, UGV drive train, IOP platform
+# services, and user-mapped messages)
+
+
+@dataclass
+class GenericField(IdlStruct, typename="edge_vis::GenericField"):
+    """One field of a user-mapped JAUS message: as text always, as a number when it is one."""
+
+    name: str
+    text: str = ""
+    number: float64 = NAN
+
+
+@dataclass
+class MeasurementReading(IdlStruct, typename="edge_vis::MeasurementReading"):
+    """One reading of a measurement device (IOP MeasurementSensor)."""
+
+    sensor: str
+    source: str = ""
+    type: str = ""
+    unit: str = ""
+    alert_level: str = ""
+    values: sequence[float64] = field(default_factory=list)
+
+
+@dataclass
+class AccelerationState(IdlStruct, typename="edge_vis::AccelerationState"):
+    """Linear (m/s^2) and angular (rad/s^2) acceleration in the vehicle frame."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    ax: float64 = NAN
+    ay: float64 = NAN
+    az: float64 = NAN
+    roll_acceleration: float64 = NAN
+    pitch_acceleration: float64 = NAN
+    yaw_acceleration: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class JointState(IdlStruct, typename="edge_vis::JointState"):
+    """Per-joint values of a manipulator or pan-tilt: ``quantity`` is position (rad or m),
+    velocity (rad/s or m/s), effort (percent) or force_torque (N m or N), optionally
+    ``commanded_``; ``units`` per joint."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    device: str
+    key("device")
+    quantity: str
+    key("quantity")
+    values: sequence[float64] = field(default_factory=list)
+    units: sequence[str] = field(default_factory=list)
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class EndEffectorPose(IdlStruct, typename="edge_vis::EndEffectorPose"):
+    """Tool point position (m) and orientation (unit quaternion) in the manipulator frame;
+    ``kind`` is actual, commanded or tool_offset."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    kind: str
+    key("kind")
+    x: float64 = NAN
+    y: float64 = NAN
+    z: float64 = NAN
+    qw: float64 = NAN
+    qx: float64 = NAN
+    qy: float64 = NAN
+    qz: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class EndEffectorVelocity(IdlStruct, typename="edge_vis::EndEffectorVelocity"):
+    """Tool point linear (m/s) and angular (rad/s) velocity; ``kind`` actual or commanded."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    kind: str
+    key("kind")
+    vx: float64 = NAN
+    vy: float64 = NAN
+    vz: float64 = NAN
+    wx: float64 = NAN
+    wy: float64 = NAN
+    wz: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class Odometry(IdlStruct, typename="edge_vis::Odometry"):
+    """Distance travelled (m) on one odometer (PLATFORM, TRIP_A, TRIP_B, TRIP_C)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    odometer: str
+    key("odometer")
+    distance: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class PlatformSpecifications(IdlStruct, typename="edge_vis::PlatformSpecifications"):
+    """Static description of a ground platform: steering kind, limits (m/s, rad/s, m/s^2),
+    extent from the vehicle origin (m) and weight (kg)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    platform_name: str = ""
+    steering: str = ""
+    max_forward_speed: float64 = NAN
+    max_reverse_speed: float64 = NAN
+    max_rotational_speed: float64 = NAN
+    max_forward_acceleration: float64 = NAN
+    max_forward_deceleration: float64 = NAN
+    front: float64 = NAN
+    back: float64 = NAN
+    left: float64 = NAN
+    right: float64 = NAN
+    top: float64 = NAN
+    bottom: float64 = NAN
+    wheel_base: float64 = NAN
+    track_width: float64 = NAN
+    min_turn_radius: float64 = NAN
+    weight: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class PowerPlantStatus(IdlStruct, typename="edge_vis::PowerPlantStatus"):
+    """One power plant (engine, battery, fuel cell, hydraulics): remaining charge or fuel
+    (percent), voltage (V), current (A), temperature (deg C) and running hours."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    plant_id: uint8
+    key("plant_id")
+    description: str = ""
+    kind: str = ""
+    remaining_percent: float64 = NAN
+    voltage: float64 = NAN
+    current: float64 = NAN
+    temperature: float64 = NAN
+    hours: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class DeviceStatus(IdlStruct, typename="edge_vis::DeviceStatus"):
+    """State of one simple vehicle device (parking_brake, illumination, transmission,
+    skid_steer, ackermann ...): ``state`` and ``value`` as reported, ``commanded_*`` as last
+    commanded (empty/NaN when the vehicle does not say)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    device: str
+    key("device")
+    state: str = ""
+    commanded_state: str = ""
+    value: float64 = NAN
+    commanded_value: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class PlatformStatus(IdlStruct, typename="edge_vis::PlatformStatus"):
+    """IOP platform state (Initialize, Operational, Emergency ...) and mode (Standard,
+    Training, Maintenance) of a vehicle."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    platform_state: str = ""
+    platform_mode: str = ""
+    mode_status: str = ""
+    supported_modes: sequence[str] = field(default_factory=list)
+    last_response: str = ""
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class DigitalResource(IdlStruct, typename="edge_vis::DigitalResource"):
+    """A digital resource (video stream, file server) a vehicle announces."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    url: str
+    key("url")
+    server_type: str = ""
+    resource_id: int32 = -1
+    jaus_address: str = ""
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class PathReport(IdlStruct, typename="edge_vis::PathReport"):
+    """The path a vehicle travelled (historical) or will travel (planned)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    path_type: str
+    key("path_type")
+    frame: Frame = Frame.GLOBAL
+    points: sequence[Waypoint] = field(default_factory=list)
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class MeasurementReport(IdlStruct, typename="edge_vis::MeasurementReport"):
+    """Readings of one measurement device, with where they were taken (deg, m)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    device: str
+    key("device")
+    designation: str = ""
+    classification: str = ""
+    readings: sequence[MeasurementReading] = field(default_factory=list)
+    latitude: float64 = NAN
+    longitude: float64 = NAN
+    altitude: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class GenericReport(IdlStruct, typename="edge_vis::GenericReport"):
+    """A user-mapped JAUS message (profile ``[[translators.generic.mappings]]``)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    message: str
+    key("message")
+    fields: sequence[GenericField] = field(default_factory=list)
+    timestamp_ms: int64 = 0
+
+
+# ----- commands
+
+
+@dataclass
+class JointCommand(IdlStruct, typename="edge_vis::JointCommand"):
+    """Joint set-points for ``device`` (manipulator or pan_tilt): ``quantity`` position
+    (rad, or m with units "m"), velocity (rad/s or m/s) or effort (percent)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    device: str = "manipulator"
+    quantity: str = "position"
+    values: sequence[float64] = field(default_factory=list)
+    units: sequence[str] = field(default_factory=list)
+
+
+@dataclass
+class EndEffectorCommand(IdlStruct, typename="edge_vis::EndEffectorCommand"):
+    """End-effector set-point: ``mode`` pose (m, unit quaternion), velocity (m/s, rad/s) or
+    effort (percent, e.g. gripper)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    mode: str = "pose"
+    x: float64 = 0.0
+    y: float64 = 0.0
+    z: float64 = 0.0
+    qw: float64 = 1.0
+    qx: float64 = 0.0
+    qy: float64 = 0.0
+    qz: float64 = 0.0
+    vx: float64 = 0.0
+    vy: float64 = 0.0
+    vz: float64 = 0.0
+    wx: float64 = 0.0
+    wy: float64 = 0.0
+    wz: float64 = 0.0
+    effort: float64 = 0.0
+
+
+@dataclass
+class DeviceCommand(IdlStruct, typename="edge_vis::DeviceCommand"):
+    """Set a simple vehicle device: parking_brake (value percent), illumination (state: the
+    lights to switch on, comma separated), transmission (state: gear), odometer (state:
+    trip to reset)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    device: str
+    state: str = ""
+    value: float64 = 0.0
+
+
+@dataclass
+class PlatformCommand(IdlStruct, typename="edge_vis::PlatformCommand"):
+    """Ask for an IOP platform state and/or mode (empty = leave unchanged)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    platform_state: str = ""
+    platform_mode: str = ""
+
+
 STRUCTS: tuple[type[IdlStruct], ...] = (
     VehicleIdentification,
     VehicleStatus,
@@ -471,5 +778,22 @@ STRUCTS: tuple[type[IdlStruct], ...] = (
     ImageData,
     TransferStatus,
     EnvironmentalData,
+    AccelerationState,
+    JointState,
+    EndEffectorPose,
+    EndEffectorVelocity,
+    Odometry,
+    PlatformSpecifications,
+    PowerPlantStatus,
+    DeviceStatus,
+    PlatformStatus,
+    DigitalResource,
+    PathReport,
+    MeasurementReport,
+    GenericReport,
+    JointCommand,
+    EndEffectorCommand,
+    DeviceCommand,
+    PlatformCommand,
 )
 """Every top-level type of the standard model; each is carried by the topic of its name."""

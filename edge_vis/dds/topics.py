@@ -12,6 +12,7 @@ again with the same type and kind is a no-op, with anything else a
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
@@ -89,6 +90,23 @@ _STANDARD_KINDS: dict[type[IdlStruct], TopicKind] = {
     model.ImageData: TopicKind.BULK,
     model.TransferStatus: TopicKind.STATE,
     model.EnvironmentalData: TopicKind.TELEMETRY,
+    model.AccelerationState: TopicKind.TELEMETRY,
+    model.JointState: TopicKind.TELEMETRY,
+    model.EndEffectorPose: TopicKind.TELEMETRY,
+    model.EndEffectorVelocity: TopicKind.TELEMETRY,
+    model.Odometry: TopicKind.TELEMETRY,
+    model.PlatformSpecifications: TopicKind.STATE,
+    model.PowerPlantStatus: TopicKind.STATE,
+    model.DeviceStatus: TopicKind.STATE,
+    model.PlatformStatus: TopicKind.STATE,
+    model.DigitalResource: TopicKind.STATE,
+    model.PathReport: TopicKind.TELEMETRY,
+    model.MeasurementReport: TopicKind.TELEMETRY,
+    model.GenericReport: TopicKind.TELEMETRY,
+    model.JointCommand: TopicKind.COMMAND,
+    model.EndEffectorCommand: TopicKind.COMMAND,
+    model.DeviceCommand: TopicKind.COMMAND,
+    model.PlatformCommand: TopicKind.COMMAND,
 }
 
 
@@ -139,6 +157,11 @@ class TopicRegistry:
         self._specs[spec.name] = spec
         self._typenames.setdefault(spec.typename, spec)
         return spec
+
+    def register_all(self, specs: Iterable[TopicSpec], owner: str | None = None) -> None:
+        """Register every spec of one plugin, stamped with ``owner`` if given."""
+        for spec in specs:
+            self.register(spec if owner is None else dataclasses.replace(spec, owner=owner))
 
     def get(self, name: str) -> TopicSpec:
         """The spec of topic ``name``; ``KeyError`` listing the known topics otherwise."""

@@ -169,6 +169,14 @@ class Engine:
         else:
             vehicle = self.vehicles.get(source.subsystem)
         if vehicle is None:
+            # a custom hello: a translator may declare the vehicle from it
+            if self.manager.handles(name):
+                ctx = self._context(None, now, source)
+                self._apply(self.manager.on_message(name, fields, ctx), now)
+                if source.subsystem in self.vehicles:
+                    self._seen(self.vehicles[source.subsystem], now)
+                    self._run(now)
+                    return
             self._probe_unknown(source, now)
             self._run(now)
             return
@@ -288,9 +296,13 @@ class Engine:
         if not components:
             return None
         subsystem = next(iter(components)).subsystem
+        if subsystem == self.profile.jaus_id.subsystem:
+            log.warning("vehicle %s declared in the relay's own subsystem: ignored", vehicle_id)
+            return None
         vehicle = self.vehicles.get(subsystem)
         if vehicle is None:
             vehicle = self._add_vehicle(subsystem, vehicle_id, now)
+        before = (vehicle.name, vehicle.vehicle_type, vehicle.address, dict(vehicle.components))
         vehicle.static = True
         vehicle.name = name or vehicle.name or vehicle_id
         vehicle.vehicle_type = vehicle_type or vehicle.vehicle_type
@@ -299,7 +311,8 @@ class Engine:
             vehicle.set_services(address, list(services))
         vehicle.services_known = True
         vehicle.next_services_query = None
-        self._changed(vehicle, "identified", now)
+        if (vehicle.name, vehicle.vehicle_type, vehicle.address, vehicle.components) != before:
+            self._changed(vehicle, "identified", now)
         if seen:
             self._seen(vehicle, now)
         self._setup(vehicle, now)
@@ -411,8 +424,11 @@ class Engine:
         self._changed(vehicle, "offline", now)
 
     def _liveness(self, vehicle: Vehicle, now: float) -> None:
+        # a lost vehicle is still probed, but only once per discovery period: the radio
+        # link's capacity belongs to the vehicles that answer
         period = self.profile.discovery.liveness_period
-        vehicle.next_liveness = now + period
+        vehicle.next_liveness = now + (period if vehicle.online
+                                       else max(period, self.profile.discovery.period))
         tick = int(now / period) if period > 0 else 0
         sent = False
         if vehicle.services_known:
@@ -612,7 +628,10 @@ class Engine:
             self.counters["control_requests_unknown_vehicle"] += 1
             return
         operator = str(sample.get("operator_id", ""))
-        action = str(sample.get("action", "request")).lower()
+        raw = sample.get("action", "request")
+        # the enum's name ("REQUEST"/"RELEASE"), or its value (0/1)
+        action = {0: "request", 1: "release"}.get(raw, str(raw)) if isinstance(raw, int) \
+            else str(getattr(raw, "name", raw)).lower()
         arb = vehicle.arbitration
         previous = arb.holder
         if action == "release":

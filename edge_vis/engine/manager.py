@@ -61,7 +61,11 @@ class TranslationManager:
     @classmethod
     def from_selection(cls, selection: TranslatorSelection,
                        options: Mapping[str, Any] | None = None) -> TranslationManager:
-        """Load the installed translators that ``selection`` enables, sorted by name."""
+        """Load the installed translators that ``selection`` enables, sorted by name.
+
+        A translator with a profile table (``options``, default ``selection.options``) gets
+        it through its ``configure(table)`` method.
+        """
         names = sorted(plugins.available(plugins.TRANSLATORS))
         for wanted in selection.enabled:
             if wanted != "*" and wanted not in names:
@@ -76,6 +80,13 @@ class TranslationManager:
             instance = cls_() if isinstance(cls_, type) else cls_
             if not instance.name:
                 instance.name = name
+            table = (options if options is not None else selection.options).get(name)
+            if table is not None:
+                configure = getattr(instance, "configure", None)
+                if configure is None:
+                    raise PluginLoadError(f"translator {name!r} takes no options, but the "
+                                          f"profile has a [translators.{name}] table")
+                configure(table)  # raises ConfigError naming the bad keys
             loaded.append(instance)
         return cls(loaded)
 

@@ -18,7 +18,12 @@ not answer are refreshed every ``default_refresh``.
 Rule 3: if the provider rejects the event, or leaves ``attempts`` requests unanswered (the
 JTS example ignores CreateEvent), the report is *polled*: the query is sent at the rate.
 
-Rule 4: when interest ends (relay stopping), CancelEvent with the event ID.
+Rule 4: a periodic event that goes quiet (no Event for ``STALE_PERIODS`` periods, at least
+twice the response timeout) was lost by the provider - a restart shorter than the silence
+timeout, say: it is created again. If that happens ``MAX_STALE`` times in a row the
+provider confirms but does not deliver, and the report is polled instead.
+
+Rule 5: when interest ends (relay stopping), CancelEvent with the event ID.
 
 =============  ======================================  ============  ======================
 state          input                                   new state     output
@@ -28,6 +33,8 @@ CREATING       ConfirmEventRequest(request id)         ACTIVE        -
 CREATING       RejectEventRequest / attempts exhausted POLLING       query at the rate
 CREATING       no answer (response_timeout)            CREATING      CreateEvent (again)
 ACTIVE         refresh due                             ACTIVE        CreateEvent
+ACTIVE         no Event for a while (periodic)         CREATING      CreateEvent
+ACTIVE         quiet again after MAX_STALE re-creates  POLLING       query at the rate
 POLLING        period elapsed                          POLLING       query
 ACTIVE         cancel                                  CANCELLING    CancelEvent
 CANCELLING     ConfirmEventRequest / timeout           DONE          -
@@ -44,6 +51,11 @@ from typing import Any
 
 from edge_vis.config import EventsProfile
 from edge_vis.jaus.address import JausAddress
+
+#: periods without an Event after which a periodic event counts as lost
+STALE_PERIODS = 5
+#: re-creations of a quiet event before polling instead
+MAX_STALE = 2
 
 
 class SubscriptionState(enum.Enum):
@@ -104,6 +116,8 @@ class Subscription:
         self.last_sequence: int | None = None
         self.last_event: float | None = None
         self.reason = ""
+        self.stale_deadline: float | None = None
+        self.stale_count = 0
         #: a CancelEvent that timed out
         self.unanswered = False
 
@@ -111,7 +125,8 @@ class Subscription:
 
     def next_deadline(self) -> float | None:
         """Earliest time :meth:`poll` has something to do."""
-        return self.deadline
+        times = [t for t in (self.deadline, self.stale_deadline) if t is not None]
+        return min(times) if times else None
 
     def matches_event(self, event_id: int, report: str) -> bool:
         """True when an Event(event_id) carrying ``report`` belongs to this subscription."""
@@ -134,11 +149,14 @@ class Subscription:
         if self.state is SubscriptionState.CANCELLING:
             self._done()
             return []
+        first = self.state is not SubscriptionState.ACTIVE
         self.state = SubscriptionState.ACTIVE
         self.event_id = event_id
         self.confirmed_rate = rate
         self.attempts = 0
         self.deadline = now + self.refresh_period
+        if first and not self.on_change:
+            self.stale_deadline = now + self._stale_after()
         return []
 
     def on_reject(self, code: int | None, now: float) -> list[Request]:
@@ -155,6 +173,9 @@ class Subscription:
         self.events_received += 1
         self.last_sequence = sequence
         self.last_event = now
+        self.stale_count = 0
+        if self.stale_deadline is not None:
+            self.stale_deadline = now + self._stale_after()
 
     def set_event_timeout(self, minutes: int, now: float) -> None:
         """ReportEventTimeout from the provider: refresh at half of it (0 = never)."""
@@ -179,9 +200,22 @@ class Subscription:
         self.event_id = None
         self.request_id = None
         self.deadline = None
+        self.stale_deadline = None
+        self.stale_count = 0
 
     def poll(self, now: float) -> list[Request]:
         """Do whatever is due at ``now``."""
+        if self.stale_deadline is not None and now >= self.stale_deadline:
+            self.stale_deadline = None
+            if self.state is SubscriptionState.ACTIVE:
+                self.stale_count += 1
+                self.event_id = None
+                if self.stale_count > MAX_STALE:
+                    self.reason = "confirmed events never arrive"
+                    return self._start_polling(now)
+                self.reason = "events stopped; created again"
+                self.attempts = 0
+                return self._create(now)
         if self.deadline is None or now < self.deadline:
             return []
         self.deadline = None
@@ -207,6 +241,9 @@ class Subscription:
     def _period(self) -> float:
         return 1.0 / self.rate if self.rate > 0 else 1.0
 
+    def _stale_after(self) -> float:
+        return max(STALE_PERIODS * self._period(), 2 * self.profile.response_timeout)
+
     def _create(self, now: float, refresh: bool = False) -> list[Request]:
         if not refresh:
             self.state = SubscriptionState.CREATING
@@ -225,10 +262,12 @@ class Subscription:
     def _start_polling(self, now: float) -> list[Request]:
         self.state = SubscriptionState.POLLING
         self.event_id = None
+        self.stale_deadline = None
         self.deadline = now + self._period()
         return [Request(self.query, self.query_fields)]
 
     def _done(self) -> None:
         self.state = SubscriptionState.DONE
         self.deadline = None
+        self.stale_deadline = None
         self.request_id = None

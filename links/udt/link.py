@@ -79,6 +79,9 @@ def _connect(address: tuple[str, int], timeout: float, max_rate_bps: int | None)
     """Open a UDT connection within ``timeout`` seconds (UDT's own wait is a fixed 3 s)."""
     udt = udt4py()
     sock = udt.UDTSocket()
+    # A sender closes only after the receipt or on giving up a dead connection; either
+    # way nothing queued is worth waiting for (UDT would linger up to 180 s by default).
+    sock.UDT_LINGER = 0
     if max_rate_bps:
         sock.UDT_MAXBW = max(1, int(max_rate_bps) // 8)
         # Keep about two seconds of data in flight, so progress means "delivered" and a
@@ -97,6 +100,7 @@ def _connect(address: tuple[str, int], timeout: float, max_rate_bps: int | None)
         if st == status.CONNECTED:
             sock.UDT_RCVSYN = True
             sock.UDT_RCVTIMEO = POLL_MS
+            sock.UDT_SNDTIMEO = POLL_MS
             return sock
         if st not in (status.CONNECTING, status.OPENED, status.INIT):
             break
@@ -122,15 +126,45 @@ def _close(sock: Any) -> None:
         sock.close()
 
 
-def _send_all(sock: Any, data: bytes) -> None:
+class _Watchdog:
+    """Declares a connection dead when the peer acknowledges nothing for ``stall`` seconds.
+
+    UDT itself gives up on a vanished peer only after its exponential EXP timer runs out
+    (tens of seconds); a radio relay should reconnect much sooner than that.
+    """
+
+    def __init__(self, sock: Any, stall: float) -> None:
+        self.sock = sock
+        self.stall = stall
+        self._pending = -1
+        self._since = time.monotonic()
+
+    def check(self) -> int:
+        """Raise :class:`ConnectionLost` on a stall; return the bytes still unacknowledged."""
+        pending = _pending(self.sock)
+        now = time.monotonic()
+        if pending == 0 or pending != self._pending:
+            self._pending = pending
+            self._since = now
+        elif now - self._since > self.stall:
+            raise ConnectionLost(f"no acknowledgement from the receiver for {self.stall:g} s")
+        return pending
+
+
+def _send_all(sock: Any, data: bytes, watchdog: _Watchdog | None = None) -> None:
+    """Send everything; with a watchdog, the socket must have ``UDT_SNDTIMEO`` set."""
     udt = udt4py()
     view = memoryview(data)
-    try:
-        while view:
+    while view:
+        try:
             sent = sock.send(view)
-            view = view[sent:]
-    except udt.UDTException as exc:
-        raise ConnectionLost(str(exc)) from exc
+        except udt.UDTException as exc:
+            if exc.error_code != udt.UDTException.ETIMEOUT:
+                raise ConnectionLost(str(exc)) from exc
+            sent = 0
+        view = view[sent:]
+        if watchdog is not None:
+            watchdog.check()
 
 
 # --------------------------------------------------------------------------- sender
@@ -172,6 +206,7 @@ class BulkSender:
         retry_refusals: frozenset[Reason] = frozenset({Reason.BUSY}),
         stop: threading.Event | None = None,
         progress: ProgressFn | None = None,
+        stall_timeout: float = 10.0,
     ) -> None:
         self.address = address
         self.max_rate_bps = max_rate_bps
@@ -182,6 +217,7 @@ class BulkSender:
         self.retry_refusals = retry_refusals
         self.stop = stop or threading.Event()
         self.progress = progress
+        self.stall_timeout = stall_timeout
 
     @property
     def target(self) -> str:
@@ -200,6 +236,9 @@ class BulkSender:
             except ConnectionLost as exc:
                 log.info("transfer %s to %s interrupted: %s", manifest.name, self.target, exc)
                 outcome = None
+            if isinstance(outcome, int):
+                log.info("transfer %s to %s interrupted at byte %d", manifest.name, self.target,
+                         outcome)
             if isinstance(outcome, TransferResult):
                 return TransferResult(
                     outcome.ok, outcome.reason, outcome.code, attempts, tuple(offsets)
@@ -232,6 +271,7 @@ class BulkSender:
         """One connection. A result ends the transfer; an int is bytes reached before a drop."""
         sock = _connect(self.address, self.connect_timeout, self.max_rate_bps)
         conn = SenderConnection(idle_timeout=self.idle_timeout)
+        watchdog = _Watchdog(sock, self.stall_timeout)
         try:
             conn.send_manifest(manifest, time.monotonic())
             _send_all(sock, conn.data_to_send())
@@ -248,11 +288,11 @@ class BulkSender:
                 log.info("resuming %s at byte %d of %d", manifest.name, answer.offset,
                          manifest.size)
             try:
-                self._stream(sock, conn, path, answer.offset)
+                self._stream(sock, conn, path, answer.offset, watchdog)
             except ConnectionLost:
                 # The receiver may have said why before closing.
                 return self._reason_after_drop(sock, conn)
-            receipt = self._next_event(sock, conn)
+            receipt = self._next_event(sock, conn, watchdog=watchdog)
             if isinstance(receipt, ReceiptReceived):
                 if self.progress and receipt.ok:
                     self.progress(manifest.size, manifest.size)
@@ -262,7 +302,8 @@ class BulkSender:
         finally:
             sock.close()
 
-    def _stream(self, sock: Any, conn: SenderConnection, path: Path, offset: int) -> None:
+    def _stream(self, sock: Any, conn: SenderConnection, path: Path, offset: int,
+                watchdog: _Watchdog) -> None:
         assert conn.manifest is not None
         total = conn.manifest.size
         with open(path, "rb") as fh:
@@ -274,7 +315,7 @@ class BulkSender:
                 if not chunk:
                     raise LinkError(f"{path} is shorter than its manifest says ({total} bytes)")
                 conn.send_data(chunk, time.monotonic())
-                _send_all(sock, conn.data_to_send())
+                _send_all(sock, conn.data_to_send(), watchdog)
                 if self.progress:
                     self.progress(max(offset, conn.offset - _pending(sock)), total)
 
@@ -297,10 +338,13 @@ class BulkSender:
                 return None
             return TransferResult(False, event.reason, event.code)
         if isinstance(event, ProtocolErrorDetected):
+            if event.code is Reason.TIMEOUT:
+                raise ConnectionLost(event.reason)
             return TransferResult(False, f"receiver broke the protocol: {event.reason}", event.code)
         raise ConnectionLost(f"unexpected {event!r}")
 
-    def _next_event(self, sock: Any, conn: SenderConnection, limit: float | None = None) -> Any:
+    def _next_event(self, sock: Any, conn: SenderConnection, limit: float | None = None,
+                    watchdog: _Watchdog | None = None) -> Any:
         udt = udt4py()
         buf = bytearray(64 * 1024)
         started = time.monotonic()
@@ -317,7 +361,7 @@ class BulkSender:
             if n:
                 events = conn.receive_data(bytes(buf[:n]), now)
             else:
-                pending = _pending(sock)
+                pending = watchdog.check() if watchdog is not None else _pending(sock)
                 if pending:  # our data is still draining: the link is slow, not dead
                     conn.touch(now)
                     if self.progress and conn.manifest is not None:
@@ -365,8 +409,10 @@ class BulkReceiver:
         self._listener: Any = None
         self._threads: list[threading.Thread] = []
         self._conns: dict[int, Any] = {}
+        self._owners: dict[str, Any] = {}  # transfer id -> socket receiving it
         self._lock = threading.Lock()
         self._stop = threading.Event()
+        self._local = threading.local()
         self.counters = {"connections": 0, "protocol_errors": 0, "refused": 0, "verified": 0}
 
     @property
@@ -380,6 +426,7 @@ class BulkReceiver:
         sock = udt.UDTSocket()
         try:
             sock.UDT_REUSEADDR = True
+            sock.UDT_LINGER = 1  # inherited by connections: time to deliver a last ERROR
             sock.bind(self._bind)
             sock.listen(32)
         except udt.UDTException as exc:
@@ -463,6 +510,7 @@ class BulkReceiver:
         udt = udt4py()
         with self._lock:
             self._conns[id(sock)] = sock
+        self._local.sock = sock
         sock.UDT_RCVTIMEO = POLL_MS
         conn = ReceiverConnection(idle_timeout=self.idle_timeout)
         buf = bytearray(DATA_CHUNK)
@@ -473,7 +521,9 @@ class BulkReceiver:
                     n = sock.recv(buf)
                 except udt.UDTException as exc:
                     if exc.error_code != udt.UDTException.ETIMEOUT:
-                        log.info("connection from %s ended: %s", peer, exc)
+                        idle = conn.state is State.AWAIT_MANIFEST
+                        log.log(logging.DEBUG if idle else logging.INFO,
+                                "connection from %s ended: %s", peer, exc)
                         return
                     n = 0
                 now = time.monotonic()
@@ -492,6 +542,9 @@ class BulkReceiver:
             log.info("connection from %s lost: %s", peer, exc)
         finally:
             if current is not None:
+                with self._lock:
+                    if self._owners.get(current) is sock:
+                        del self._owners[current]
                 self.spool.release(current)
                 entry = self.spool.entry(current)
                 if entry is not None and entry.state.value == "partial":
@@ -500,10 +553,24 @@ class BulkReceiver:
                 self._conns.pop(id(sock), None)
             _close(sock)
 
+    def _take_over(self, tid: str, peer: str) -> None:
+        """A sender reconnected while its old connection looks alive here: the old one is
+        dead (the sender would not reconnect otherwise), so close it and take its place."""
+        with self._lock:
+            old = self._owners.get(tid)
+        if old is None or old is self._local.sock or not self.spool.is_active(tid):
+            return
+        log.info("transfer %s: new connection from %s replaces a stale one", tid, peer)
+        _close(old)
+        deadline = time.monotonic() + 2.0
+        while self.spool.is_active(tid) and time.monotonic() < deadline:
+            time.sleep(0.01)
+
     def _handle(self, conn: ReceiverConnection, event: Any, peer: str, current: str | None
                 ) -> str | None:
         if isinstance(event, ManifestReceived):
             m = event.manifest
+            self._take_over(m.transfer_id, peer)
             try:
                 offset = self.spool.begin(m)
             except SpoolRefusal as exc:
@@ -512,6 +579,8 @@ class BulkReceiver:
                 conn.refuse(exc.code, exc.reason)
                 self._status(m, "refused", 0, exc.reason)
                 return None
+            with self._lock:
+                self._owners[m.transfer_id] = self._local.sock
             log.info("%s %s (%d bytes) from %s at offset %d",
                      "resuming" if offset else "receiving", m.name, m.size, peer, offset)
             self._status(m, "resumed" if offset else "started", offset)
@@ -536,6 +605,8 @@ class BulkReceiver:
                 self.spool.release(m.transfer_id)
                 return None
             self.spool.release(m.transfer_id)
+            with self._lock:
+                self._owners.pop(m.transfer_id, None)
             conn.send_receipt(True, m.sha256)
             self.counters["verified"] += 1
             log.info("verified %s from %s (sha256 %s...)", m.name, m.vehicle_id, m.sha256[:12])

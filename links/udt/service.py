@@ -81,12 +81,13 @@ def send_image(
     backoff: Backoff | None = None,
     manifest: Manifest | None = None,
     stop: threading.Event | None = None,
+    stall_timeout: float = 10.0,
 ) -> TransferResult:
     """Send one file and wait for the receipt; ``result.ok`` only if the hash was confirmed."""
     m = manifest or manifest_for_file(path, vehicle_id=vehicle_id)
     sender = BulkSender(
         _address(to), max_rate_bps=max_rate_bps, progress=progress,
-        give_up_after=give_up_after, backoff=backoff, stop=stop,
+        give_up_after=give_up_after, backoff=backoff, stop=stop, stall_timeout=stall_timeout,
     )
     return sender.send_file(path, m)
 

@@ -31,6 +31,7 @@ import logging
 import os
 import shutil
 import threading
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from enum import Enum
@@ -42,7 +43,9 @@ from links.udt.protocol import Manifest, ManifestError, Reason
 log = logging.getLogger(__name__)
 
 SYNC_BYTES = 4 << 20
-"""Received bytes between two fsync + journal records (the most a crash can lose)."""
+SYNC_INTERVAL = 1.0
+"""A transfer's received bytes are fsync'd and journalled every ``SYNC_BYTES`` or
+``SYNC_INTERVAL`` seconds, whichever comes first: the most a crash can lose."""
 
 
 class SpoolRefusal(Exception):
@@ -72,6 +75,7 @@ class Entry:
     delivered: str | None = None
     handle: IO[bytes] | None = None
     unsynced: int = 0
+    synced_at: float = 0.0
 
 
 def _human(n: float) -> str:
@@ -98,12 +102,14 @@ class Spool:
         forward_targets: tuple[str, ...] = (),
         deliver_dir: str | os.PathLike[str] | None = None,
         sync_bytes: int = SYNC_BYTES,
+        sync_interval: float = SYNC_INTERVAL,
     ) -> None:
         self.root = Path(root)
         self.quota_bytes = quota_bytes
         self.forward_targets = tuple(forward_targets)
         self.deliver_dir = None if deliver_dir is None else Path(deliver_dir)
         self.sync_bytes = sync_bytes
+        self.sync_interval = sync_interval
         self._lock = threading.RLock()
         self._entries: dict[str, Entry] = {}
         self._active: set[str] = set()
@@ -212,6 +218,11 @@ class Spool:
                 e.manifest.size for e in self._entries.values() if e.state is not EntryState.DONE
             )
 
+    def is_active(self, tid: str) -> bool:
+        """Whether a connection currently holds the claim on ``tid``."""
+        with self._lock:
+            return tid in self._active
+
     def entry(self, tid: str) -> Entry | None:
         with self._lock:
             return self._entries.get(tid)
@@ -246,6 +257,7 @@ class Spool:
                 entry.handle = open(self._part(tid), "r+b")  # noqa: SIM115
                 entry.handle.seek(entry.durable)
                 entry.handle.truncate(entry.durable)
+                entry.synced_at = time.monotonic()
                 entry.written = entry.durable
                 return entry.durable
             return manifest.size
@@ -283,7 +295,8 @@ class Spool:
             raise SpoolRefusal(Reason.STORAGE, f"cannot write spool file: {exc}") from exc
         entry.written += len(data)
         entry.unsynced += len(data)
-        if entry.unsynced >= self.sync_bytes:
+        if (entry.unsynced >= self.sync_bytes
+                or time.monotonic() - entry.synced_at >= self.sync_interval):
             self.sync(tid)
 
     def sync(self, tid: str) -> None:
@@ -295,6 +308,7 @@ class Spool:
             entry.handle.flush()
             os.fsync(entry.handle.fileno())
             entry.unsynced = 0
+            entry.synced_at = time.monotonic()
             if entry.written != entry.durable:
                 entry.durable = entry.written
                 self._append({"op": "durable", "id": tid, "n": entry.durable})
@@ -382,7 +396,10 @@ class Spool:
         self._append({"op": "delivered", "id": m.transfer_id, "path": entry.delivered})
 
     def _maybe_done(self, entry: Entry) -> None:
-        if entry.state is EntryState.VERIFIED and set(self.forward_targets) <= entry.forwarded:
+        """Let go of a verified file once it is safe elsewhere: delivered and/or forwarded."""
+        elsewhere = entry.delivered is not None or bool(self.forward_targets)
+        if (entry.state is EntryState.VERIFIED and elsewhere
+                and set(self.forward_targets) <= entry.forwarded):
             self._ready(entry.manifest.transfer_id).unlink(missing_ok=True)
             entry.state = EntryState.DONE
             self._append({"op": "done", "id": entry.manifest.transfer_id})

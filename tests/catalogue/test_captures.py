@@ -394,8 +394,9 @@ def catalogue() -> Any:
 MALFORMED = {"02001800010101960001012a00042b01009600010101010400": 0x2B04}
 
 
-@pytest.mark.parametrize("row", ROWS, ids=[r.where for r in ROWS])
+@pytest.mark.parametrize("row", ROWS, ids=[r.where.split()[0] for r in ROWS])
 def test_capture_row_decodes_to_its_annotation(row: Row, catalogue: Any) -> None:
+    print(row.where, row.note)
     head = header_of(row)
     (packet,) = unpack_datagram(row.data)
     assert row.data[0] == head.version == 2

@@ -24,7 +24,7 @@ EVENT = 0x41F1
 
 TESTS = Path(__file__).resolve().parents[1]
 if str(TESTS) not in sys.path:
-    sys.path.insert(0, str(TESTS))
+    sys.path.append(str(TESTS))
 
 
 def _strategy_for() -> Any:
@@ -33,7 +33,7 @@ def _strategy_for() -> Any:
         module = importlib.import_module("strategies")
     except ImportError:
         return None
-    for name in ("message_fields", "fields_for", "body_values", "fields"):
+    for name in ("fields_for", "message_fields"):
         candidate = getattr(module, name, None)
         if callable(candidate):
             return candidate

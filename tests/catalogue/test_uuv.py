@@ -25,7 +25,7 @@ from edge_vis.jaus.transport import Packet, pack_datagram
 
 TESTS = Path(__file__).resolve().parents[1]
 if str(TESTS) not in sys.path:
-    sys.path.insert(0, str(TESTS))
+    sys.path.append(str(TESTS))
 from jsidl_walk import load_all  # noqa: E402
 
 SHARED = Path(__file__).resolve().parents[2] / ".." / "shared" / "jaus"

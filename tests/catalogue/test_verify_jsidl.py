@@ -3,9 +3,10 @@
 ``tests/jsidl_walk.py`` reads the JAUS Toolset (``jsidl/``) and IOP (``jsidl-iop/``) JSIDL
 without using ``edge_vis.jsidl`` and reduces every message to its flattened wire items; here
 each built-in definition in ``default_catalogue()`` is reduced the same way and compared:
-code, name, field order and names, types and signedness, scale limits, presence-vector
-widths and bits, list count widths, variant tags, string and byte counts. Where the two JSIDL
-sets disagree for one code, either layout is accepted and the one matched is reported.
+code, name, field order and names, types and signedness, scale limits, named values,
+presence-vector widths and bits, list count widths, variant tags, string and byte counts.
+Where the two JSIDL sets disagree for one code, either layout is accepted and the one
+matched is reported.
 Run with ``-s`` to see the counts.
 """
 
@@ -21,6 +22,7 @@ import pytest
 
 from edge_vis.codec.types import (
     BitField,
+    Enum,
     Field,
     List,
     MessageDef,
@@ -38,7 +40,7 @@ from edge_vis.codec.types import (
 
 TESTS = Path(__file__).resolve().parents[1]
 if str(TESTS) not in sys.path:  # the test-only JSIDL reader lives beside the test folders
-    sys.path.insert(0, str(TESTS))
+    sys.path.append(str(TESTS))
 from jsidl_walk import JsidlMessage, compare_items, flatten_record, load_all  # noqa: E402
 
 SHARED = Path(__file__).resolve().parents[2] / ".." / "shared" / "jaus"
@@ -271,17 +273,28 @@ def test_a_wrong_definition_is_named_precisely(jsidl: dict[int, list[JsidlMessag
 
 def test_list_count_widths_and_variant_tags_are_checked(
         jsidl: dict[int, list[JsidlMessage]]) -> None:
-    node = record(f("node_id", u8), f("component_list", List(u8, record(f("component_id", u8)))))
+    node_id = Enum(u8, {0: "Reserved", 255: "All nodes in the subsystem"})
+    component_id = Enum(u8, {0: "Reserved", 255: "All components in the subsystem"})
+    node = record(f("node_id", node_id),
+                  f("component_list", List(u8, record(f("component_id", component_id)))))
     good = message(0x2B03, "QueryServices", f("node_list", List(u8, node)), service_set="t")
     assert verify(good, jsidl[0x2B03])[0] == []
     wide = message(0x2B03, "QueryServices", f("node_list", List(u16, node)), service_set="t")
     assert verify(wide, jsidl[0x2B03])[0][0].startswith(
         "node_list: expected list (count u8) of 2 item(s), actual list (count u16)")
-    inner = record(f("node_id", u8), f("component_list", List(u16, record(f("component_id", u8)))))
+    inner = record(f("node_id", node_id),
+                   f("component_list", List(u16, record(f("component_id", component_id)))))
     deep = message(0x2B03, "QueryServices", f("node_list", List(u8, inner)), service_set="t")
     assert verify(deep, jsidl[0x2B03])[0][0].startswith("node_list[].component_list: expected")
+    plain = message(0x2B03, "QueryServices", f("node_list", List(u8, record(
+        f("node_id", u8), f("component_list", List(u8, record(f("component_id", component_id))))
+    ))), service_set="t")
+    assert verify(plain, jsidl[0x2B03])[0][0].startswith(
+        "node_list[].node_id: expected value names {0: 'Reserved', 255: 'All nodes in the "
+        "subsystem'}, actual {}")
     alternatives = (Field("message_id_rec", record(f("message_code", u16))),
-                    Field("event_type_rec", record(f("event_type", u8))),
+                    Field("event_type_rec", record(f("event_type", Enum(
+                        u8, {0: "Periodic (SC)", 1: "Every change"})))),
                     Field("event_id_rec", record(f("event_id", u8))),
                     Field("all_events_rec", record(f("all_events", u8))))
     query = message(0x21F0, "QueryEvents", f("query_events_var", Variant(u8, alternatives)),

@@ -123,6 +123,12 @@ def test_a_conflicting_definition_fails_the_check(
     (line,) = [x for x in captured.out.splitlines() if "DIFFERS" in x]
     assert line.startswith("0x4002  ReportStatus") and "DIFFERS from ReportStatus in core" in line
     assert "1 JSIDL message(s) differ" in captured.err
+    code, report = run_json(capsys, "--jsidl", str(lamp), "--set", "urn:example:lamp")
+    assert code == 1 and report["conflicts"] == 1
+    flagged = {m["name"]: m["conflict"] for m in report["messages"]}
+    assert flagged == {"ReportStatus": True, "SetLamp": False}
+    # a listing that leaves the conflicting message out is not failed by it
+    assert main(["messages", "--jsidl", str(lamp), "--set", "uuv"]) == 0
 
 
 @pytest.mark.skipif(not (SHARED / "jsidl").is_dir(), reason="JSIDL reference not found")

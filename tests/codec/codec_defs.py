@@ -55,7 +55,9 @@ TIME_STAMP = BitField(
         SubField("day", 27, 31),
     ),
 )
-DATE_STAMP = BitField(u16, (SubField("day", 0, 4), SubField("month", 5, 8), SubField("year", 9, 15)))
+DATE_STAMP = BitField(
+    u16, (SubField("day", 0, 4), SubField("month", 5, 8), SubField("year", 9, 15))
+)
 
 LATITUDE = Scaled(u32, -90, 90, "degree")
 LONGITUDE = Scaled(u32, -180, 180, "degree")

@@ -240,3 +240,31 @@ def test_close_is_idempotent_and_final(make_bridge: MakeBridge) -> None:
     with pytest.raises(DdsError, match="closed"):
         bridge.publish("VehicleStatus", {"vehicle_id": "ugv1"})
     assert bridge._thread is not None and not bridge._thread.is_alive()
+
+
+def test_absent_optional_wrench_members_stay_absent_across_dds(make_bridge: MakeBridge) -> None:
+    relay, operator = make_bridge(), make_bridge()
+    relay.subscribe(["WrenchEffortCommand"])
+    assert operator.wait_for_subscribers("WrenchEffortCommand")
+    operator.publish("WrenchEffortCommand", {"vehicle_id": "ugv1", "operator_id": "op1",
+                                             "propulsive_linear_x": 35.0,
+                                             "propulsive_rotational_z": -10})
+    got: list[tuple[str, dict[str, Any]]] = []
+    assert wait_until(lambda: bool(got.extend(relay.take()) or got))
+    assert got == [("WrenchEffortCommand", {"vehicle_id": "ugv1", "operator_id": "op1",
+                                            "propulsive_linear_x": 35.0,
+                                            "propulsive_rotational_z": -10.0})]
+
+
+def test_an_explicit_cyclone_configuration_is_used(make_bridge: MakeBridge) -> None:
+    with pytest.raises(DdsError, match="cannot configure DDS domain 230"):
+        make_bridge(domain_id=230, config="<CycloneDDS><Domain><Bogus/></Domain></CycloneDDS>")
+
+
+def test_subscribing_to_an_unknown_or_taken_topic_fails_whole(make_bridge: MakeBridge) -> None:
+    relay = make_bridge()
+    with pytest.raises(KeyError, match="VelocityComand"):
+        relay.subscribe(["VelocityCommand", "VelocityComand"])
+    relay.subscribe(["VelocityCommand"])  # the failed call created nothing
+    with pytest.raises(ValueError, match="already subscribed: VelocityCommand"):
+        relay.subscribe(["ControlRequest", "VelocityCommand"])

@@ -1,4 +1,4 @@
-"""Topic registry, QoS kinds and dict <-> sample conversion (no DDS traffic)."""
+"""Topic registry, QoS kinds and dict <-> sample conversion; one plugin topic over DDS."""
 
 from dataclasses import dataclass
 from typing import Any
@@ -78,7 +78,8 @@ def test_the_standard_registry_has_every_topic_with_its_members() -> None:
 def test_kinds_decide_direction() -> None:
     registry = TopicRegistry.standard()
     assert set(registry.inbound()) == {
-        "ControlRequest", "WrenchEffortCommand", "VelocityCommand", "WaypointPlan"
+        "ControlRequest", "WrenchEffortCommand", "VelocityCommand", "WaypointPlan",
+        "JointCommand", "EndEffectorCommand", "DeviceCommand", "PlatformCommand",
     }
     assert registry.get("GlobalPose").kind is TopicKind.TELEMETRY
     assert registry.get("VehicleIdentification").kind is TopicKind.STATE
@@ -117,6 +118,15 @@ def test_a_topic_name_claimed_with_another_type_is_a_conflict_naming_both() -> N
     registry.register(TopicSpec("SonarContact", SonarContact, TopicKind.TELEMETRY, owner="acme"))
     with pytest.raises(PluginConflictError, match="already registered"):
         registry.register(TopicSpec("SonarContact", SonarContact, TopicKind.STATE, owner="b"))
+
+
+def test_register_all_stamps_the_owner_for_conflict_messages() -> None:
+    registry = TopicRegistry.standard()
+    registry.register_all([TopicSpec("SonarContact", SonarContact, TopicKind.STATE)], owner="acme")
+    assert registry.get("SonarContact").owner == "acme"
+    with pytest.raises(PluginConflictError, match=r"'rival'.*'acme'"):
+        registry.register_all([TopicSpec("SonarContact", OtherPose, TopicKind.STATE)],
+                              owner="rival")
 
 
 def test_unknown_topic_lists_the_known_ones() -> None:
@@ -217,3 +227,12 @@ def test_key_of_builds_a_key_only_sample() -> None:
     assert link.key_of({"link": "radio", "vehicle_id": ""}).link == "radio"
     with pytest.raises(EncodeError, match="give them as a dict"):
         link.key_of("radio", "LinkStatus")
+
+
+def test_a_plugin_topic_travels_through_the_bridge(make_bridge: Any) -> None:
+    registry = TopicRegistry.standard()
+    registry.register(TopicSpec("SonarContact", SonarContact, TopicKind.STATE, owner="acme"))
+    relay = make_bridge(topics=registry)
+    relay.publish("SonarContact", {"vehicle_id": "uuv3", "bearing": 0.5})
+    reader = make_bridge(topics=registry).reader("SonarContact")
+    assert reader.collect(1, 3.0) == [{"vehicle_id": "uuv3", "bearing": 0.5}]

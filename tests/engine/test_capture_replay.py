@@ -107,9 +107,10 @@ def test_discovers_polls_and_controls_the_jts_example(
     assert "urn:jaus:jss:core:Management" in uris  # inherited, though JTS does not list it
 
     # events: CreateEvent went unanswered, so the pose is polled and published
-    creates = [a for a in jts.requests if a.name == "CreateEvent"]
+    # (the waypoint list driver's active element and travel speed are asked for too)
+    creates = [a for a in jts.requests if a.name == "CreateEvent"
+               and a.fields["query_message"][:2] == bytes.fromhex("0324")]
     assert len(creates) == 2
-    assert creates[0].fields["query_message"][:2] == bytes.fromhex("0324")
     polls = [a for a in jts.requests if a.name == "QueryLocalPose"]
     assert len(polls) >= 5
     poses = published(out, "LocalPose")
@@ -153,7 +154,7 @@ def test_discovers_polls_and_controls_the_jts_example(
     for payload in responder["ReleaseControl"]:
         h.deliver_payload(str(VEHICLE), payload)
     assert h.engine.snapshot().vehicles[0].controls[VEHICLE] == "idle"
-    assert published(h.log, "ControlStatus")[-1]["state"] == "FREE"
+    assert published(h.log, "ControlStatus")[-1]["state"] == "NOT_CONTROLLED"
     out = run(h, jts, 4.0)
     assert not sent(out, "RequestControl")
     # the vehicle stayed online all along (QueryStatus answers keep it alive)

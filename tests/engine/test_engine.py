@@ -58,11 +58,24 @@ def take_control(h: Harness, operator: str = "op1", authority: int = 10) -> list
     return out
 
 
-def keep_alive(h: Harness, seconds: float, step: float = 0.5) -> list[Any]:
+REPORTS = {"ReportGlobalPose": {"latitude": 28.5, "longitude": -81.4},
+           "ReportVelocityState": {"velocity_x": 0.5}}
+
+
+def keep_alive(h: Harness, seconds: float, step: float = 0.5, events: bool = False
+               ) -> list[Any]:
+    """Answer liveness every ``step``; with ``events``, deliver one Event per active event."""
     out: list[Any] = []
     for _ in range(int(seconds / step)):
         out += h.advance(step)
         out += h.deliver(ROBOT, "ReportHeartbeatPulse")
+        if events:
+            for sub in h.engine.snapshot().vehicles[0].subscriptions:
+                if sub.state == "active":
+                    report = h.catalogue.encode(sub.report, REPORTS[sub.report])
+                    out += h.deliver(ROBOT, "Event", {"event_id": sub.event_id,
+                                                      "sequence_number": 0,
+                                                      "report_message": report})
     return out
 
 
@@ -84,10 +97,42 @@ def test_event_refreshed_at_half_the_reported_timeout(catalogue: Any) -> None:
     out = discover(h)
     assert len(sent(out, "QueryEventTimeout", ROBOT)) == 1
     h.deliver(ROBOT, "ReportEventTimeout", {"timeout": 1})  # one minute
-    out = keep_alive(h, 29.0)
+    out = keep_alive(h, 29.0, events=True)
     assert not sent(out, "CreateEvent")
-    out = keep_alive(h, 2.0)
+    out = keep_alive(h, 2.0, events=True)
     assert len(sent(out, "CreateEvent", ROBOT)) == 2  # both subscriptions refreshed
+    assert len(published(out, "GlobalPose")) == 4
+
+
+def test_quiet_event_is_created_again_then_polled(catalogue: Any) -> None:
+    """A provider that restarted within the silence timeout lost our events."""
+    h = Harness(catalogue)
+    discover(h)
+    out = keep_alive(h, 5.5, events=True)
+    assert not sent(out, "CreateEvent")
+    # the robot restarts quickly: heartbeats go on, Events stop
+    out = keep_alive(h, 6.5)
+    recreated = sent(out, "CreateEvent", ROBOT)
+    assert len(recreated) == 2
+    for create in recreated:  # it confirms again ...
+        h.deliver(ROBOT, "ConfirmEventRequest", {
+            "request_id": create.fields["request_id"], "event_id": 1,
+            "confirmed_periodic_rate": 5.0})
+    out = keep_alive(h, 6.5, events=True)  # ... and delivers: no more re-creation
+    assert not sent(out, "CreateEvent")
+    assert published(out, "GlobalPose")
+    # a provider that confirms but never delivers ends up polled
+    for _ in range(3):
+        out = keep_alive(h, 6.5)
+        for create in sent(out, "CreateEvent", ROBOT):
+            h.deliver(ROBOT, "ConfirmEventRequest", {
+                "request_id": create.fields["request_id"], "event_id": 1,
+                "confirmed_periodic_rate": 5.0})
+    out = keep_alive(h, 1.0)
+    assert sent(out, "QueryGlobalPose", ROBOT)
+    subs = h.engine.snapshot().vehicles[0].subscriptions
+    assert {s.state for s in subs} == {"polling"}
+    assert subs[0].reason == "confirmed events never arrive"
 
 
 def test_rejected_event_falls_back_to_polling(catalogue: Any) -> None:
@@ -172,7 +217,7 @@ def test_refused_control_is_retried(catalogue: Any) -> None:
     h.sample("ControlRequest", {"vehicle_id": VID, "operator_id": "op1", "authority": 1,
                                 "action": "request"})
     h.deliver(ROBOT, "ConfirmControl", {"response_code": 2})
-    assert published(h.log, "ControlStatus")[-1]["state"] == "REFUSED"
+    assert published(h.log, "ControlStatus")[-1]["state"] == "REJECTED"
     out = keep_alive(h, 5.5)
     assert len(sent(out, "RequestControl", ROBOT)) == 1
 
@@ -269,7 +314,7 @@ def test_arbitration_preemption_and_refusal(catalogue: Any) -> None:
                                       "action": "release"})
     assert sent(out, "ReleaseControl", ROBOT)
     h.deliver(ROBOT, "RejectControl", {"response_code": 0})
-    assert published(h.log, "ControlStatus")[-1]["state"] == "FREE"
+    assert published(h.log, "ControlStatus")[-1]["state"] == "NOT_CONTROLLED"
 
 
 # -- liveness -----------------------------------------------------------------------------
@@ -300,6 +345,8 @@ def test_silent_vehicle_is_still_probed_and_rediscovered_after_restart(catalogue
     out = h.advance(10.0)
     assert sent(out, "QueryIdentification", "65535.255.255")  # discovery broadcast goes on
     assert sent(out, "QueryHeartbeatPulse", ROBOT)
+    out = h.advance(20.0)  # while lost, probed once per discovery period (5 s)
+    assert len(sent(out, "QueryHeartbeatPulse", ROBOT)) == 4
     out = h.deliver(ROBOT, "ReportIdentification",
                     {"query_type": 2, "type": 10001, "identification": "JausppRobot"})
     assert published(out, "VehicleStatus")[-1]["online"] is True
@@ -369,6 +416,44 @@ def test_translator_can_declare_a_vehicle(catalogue: Any) -> None:
     assert sent(out, "CreateEvent", "77.1.5")
 
 
+class HelloTranslator(Translator):
+    """Plays a vendor hello: a vehicle without JAUS discovery announces itself with a
+    ReportTime (any message the translator claims would do)."""
+
+    name = "hello"
+    messages = ("ReportTime",)
+
+    def on_message(self, name: str, fields: Any, ctx: Any) -> list[Any]:
+        if ctx.vehicle is not None:
+            return []
+        return [DeclareVehicle("vendor-uuv", {ctx.source: (
+            ("urn:jaus:jss:mobility:GlobalPoseSensor", "1.0"),
+            ("urn:jaus:jss:mobility:PrimitiveDriver", "1.0"))}, name="Vendor UUV",
+            vehicle_type="UUV")]
+
+
+def test_custom_hello_declares_a_vehicle(catalogue: Any) -> None:
+    from translators.core import CoreTranslator
+    from translators.mobility import MobilityTranslator
+
+    h = Harness(catalogue, translators=[CoreTranslator(), MobilityTranslator(),
+                                        HelloTranslator()])
+    h.advance(0.1)
+    out = h.deliver("88.1.3", "ReportTime", {})
+    ident = published(out, "VehicleIdentification")
+    assert [i["vehicle_id"] for i in ident] == ["vendor-uuv"]
+    assert ident[0]["jaus_address"] == "88.1.3" and ident[0]["vehicle_type"] == "UUV"
+    assert published(out, "VehicleStatus")[-1]["online"] is True
+    assert len(sent(out, "CreateEvent", "88.1.3")) == 1  # GlobalPose from the declared service
+    # the next hello changes nothing and is not republished
+    out = h.deliver("88.1.3", "ReportTime", {})
+    assert not published(out, "VehicleIdentification")
+    # and the vehicle can be commanded like any other
+    out = h.sample("ControlRequest", {"vehicle_id": "vendor-uuv", "operator_id": "op",
+                                      "authority": 1, "action": "REQUEST"})
+    assert sent(out, "RequestControl", "88.1.3")
+
+
 def test_conflicting_translators_are_refused_naming_both() -> None:
     class A(Translator):
         name = "alpha"
@@ -404,7 +489,8 @@ def test_translators_selected_by_profile_without_code_change() -> None:
     from edge_vis.config import TranslatorSelection
 
     manager = TranslationManager.from_selection(TranslatorSelection(("*",), ("mobility",)))
-    assert [t.name for t in manager.translators] == ["core"]
+    names = [t.name for t in manager.translators]
+    assert "core" in names and "mobility" not in names
     manager = TranslationManager.from_selection(TranslatorSelection(("mobility",), ()))
     assert [t.name for t in manager.translators] == ["mobility"]
 
@@ -415,3 +501,38 @@ def test_engine_actions_are_values() -> None:
     c = Command("v", "o", "k", "SetWrenchEffort", {}, "urn:x")
     with pytest.raises(AttributeError):
         c.kind = "other"  # type: ignore[misc]
+
+
+def test_services_asked_for_all_then_for_explicit_components(catalogue: Any) -> None:
+    h = Harness(catalogue)
+    h.advance(0.1)
+    out = h.deliver("126.1.199", "ReportIdentification",
+                    {"query_type": 2, "type": 10001, "identification": "SimulatedVehicle"})
+    first = sent(out, "QueryServices", "126.1.199")[0].fields
+    assert first == {"node_list": [{"node_rec": {"node_id": 255},
+                                    "component_list": [{"component_id": 255}]}]}
+    assert sent(out, "QueryConfiguration", "126.1.199")[0].fields == {"query_type": 2}
+    h.deliver("126.1.199", "ReportConfiguration", {"node_list": [
+        {"node_rec": {"node_id": 1}, "component_list": [
+            {"component_id": 1, "instance_id": 0}, {"component_id": 199, "instance_id": 0}]}]})
+    out = h.advance(3.0)
+    second = sent(out, "QueryServices", "126.1.199")[0].fields
+    assert second == {"node_list": [{"node_rec": {"node_id": 1}, "component_list": [
+        {"component_id": 199}, {"component_id": 1}]}]}
+    # the JTS answer lists node 1 twice: both services land on 126.1.199
+    out = h.deliver("126.1.199", "ReportServices", {"node_list": [
+        {"node_rec": {"node_id": 1}, "component_list": [{
+            "component_rec": {"component_id": 199, "instance_id": 0},
+            "service_list": [{"uri": "urn:jaus:jss:mobility:LocalPoseSensor",
+                              "major_version_number": 1, "minor_version_number": 0}]}]},
+        {"node_rec": {"node_id": 1}, "component_list": [{
+            "component_rec": {"component_id": 199, "instance_id": 0},
+            "service_list": [{"uri": "urn:jaus:jss:mobility:LocalWaypointListDriver",
+                              "major_version_number": 1, "minor_version_number": 0}]}]}]})
+    components = h.engine.snapshot().vehicles[0].view.components
+    assert list(components) == [JausAddress(126, 1, 199)]
+    uris = {uri for uri, _ in components[JausAddress(126, 1, 199)]}
+    assert "urn:jaus:jss:mobility:LocalWaypointListDriver" in uris
+    assert "urn:jaus:jss:core:AccessControl" in uris
+    out = h.advance(10.0)
+    assert not sent(out, "QueryServices")  # known now: no more asking

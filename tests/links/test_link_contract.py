@@ -92,6 +92,7 @@ def test_router_nodes_over_loop_links_relay_between_two_buses() -> None:
     run(scenario())
 
 
+@pytest.mark.serial
 def test_mirror_writes_serial_traffic_as_pcap_that_decode_reads(tmp_path: Path) -> None:
     pcap = tmp_path / "radio.pcap"
 
@@ -117,7 +118,6 @@ def test_mirror_writes_serial_traffic_as_pcap_that_decode_reads(tmp_path: Path) 
     assert main(["decode", str(pcap)]) == 0
 
 
-@pytest.mark.serial
 def test_links_command_reports_traffic_and_mirrors_it(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     port = free_port(("127.0.0.2", "127.0.0.3"))
@@ -141,5 +141,5 @@ def test_links_command_reports_traffic_and_mirrors_it(
     assert status == 0
     assert "in:  3 messages" in out and "malformed: 1" in out
     assert len(list(read_udp(pcap.read_bytes(), port=None))) == 3
-    assert main(["links", "--link", "serial:///dev/does-not-exist"]) == 1
+    assert main(["links", "--link", "serial:///dev/does-not-exist", "--listen", "0"]) == 1
     assert "state: error" in capsys.readouterr().out

@@ -40,18 +40,25 @@ CASES = [
         "online": False, "last_seen_ms": 1_700_000_005_000}, id="offline"),
     pytest.param("control", {}, "ControlStatus", {
         "vehicle_id": "SimulatedVehicle-126", "operator_id": "", "authority": 0,
-        "state": "FREE", "rejected_commands": 0, "last_rejection": ""}, id="free"),
+        "state": "NOT_CONTROLLED", "rejected_commands": 0, "last_rejection": "",
+        "timestamp_ms": 1_700_000_005_000}, id="free"),
     pytest.param("control", {"controller": "op1", "controller_authority": 7,
                              "jaus_control": "controlled"}, "ControlStatus", {
         "vehicle_id": "SimulatedVehicle-126", "operator_id": "op1", "authority": 7,
-        "state": "CONTROLLED", "rejected_commands": 0, "last_rejection": ""}, id="held"),
+        "state": "CONTROLLED", "rejected_commands": 0, "last_rejection": "",
+        "timestamp_ms": 1_700_000_005_000}, id="held"),
     pytest.param("control", {"controller": "op1", "controller_authority": 7,
                              "jaus_control": "requesting", "rejected_commands": 3,
                              "last_rejection": "SetWrenchEffort from op2 refused"},
                  "ControlStatus", {
         "vehicle_id": "SimulatedVehicle-126", "operator_id": "op1", "authority": 7,
         "state": "REQUESTED", "rejected_commands": 3,
-        "last_rejection": "SetWrenchEffort from op2 refused"}, id="requested-with-rejections"),
+        "last_rejection": "SetWrenchEffort from op2 refused",
+        "timestamp_ms": 1_700_000_005_000}, id="requested-with-rejections"),
+    pytest.param("control", {"controller": "op1", "jaus_control": "refused"}, "ControlStatus", {
+        "vehicle_id": "SimulatedVehicle-126", "operator_id": "op1", "authority": 0,
+        "state": "REJECTED", "rejected_commands": 0, "last_rejection": "",
+        "timestamp_ms": 1_700_000_005_000}, id="vehicle-refused"),
 ]
 
 

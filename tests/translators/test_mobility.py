@@ -59,19 +59,23 @@ def test_report_to_sample(payload: str, topic: str, expected: dict[str, float]) 
 ZERO6 = dict.fromkeys(("propulsive_linear_effort_x", "propulsive_linear_effort_y",
                        "propulsive_linear_effort_z", "propulsive_rotational_effort_x",
                        "propulsive_rotational_effort_y", "propulsive_rotational_effort_z"), 0.0)
+STOP = {"WrenchEffortCommand": ZERO6}
 
 # (topic, sample, expected message name, expected fields, service suffix)
 COMMAND_CASES = [
     pytest.param(
         "WrenchEffortCommand",
-        {"propulsive_linear_x": 40.0, "propulsive_rotational_z": -25.5},
+        {"propulsive_linear_x": 40.0, "propulsive_rotational_z": -25.5,
+         "propulsive_linear_y": None},
         "SetWrenchEffort",
-        {**ZERO6, "propulsive_linear_effort_x": 40.0, "propulsive_rotational_effort_z": -25.5},
-        "PrimitiveDriver", id="wrench"),
+        {"propulsive_linear_effort_x": 40.0, "propulsive_rotational_effort_z": -25.5},
+        "PrimitiveDriver", id="wrench-absent-fields-left-out"),
     pytest.param(
-        "WrenchEffortCommand", {"propulsive_linear_x": 250.0, "propulsive_linear_y": -101},
+        "WrenchEffortCommand", {"propulsive_linear_x": 250.0, "propulsive_linear_y": -101,
+                                "resistive_linear_x": -5.0, "resistive_rotational_z": 30.0},
         "SetWrenchEffort",
-        {**ZERO6, "propulsive_linear_effort_x": 100.0, "propulsive_linear_effort_y": -100.0},
+        {"propulsive_linear_effort_x": 100.0, "propulsive_linear_effort_y": -100.0,
+         "resistive_linear_effort_x": 0.0, "resistive_rotational_effort_z": 30.0},
         "PrimitiveDriver", id="wrench-clamped"),
     pytest.param(
         "VelocityCommand", {"vx": 1.5, "yaw_rate": 0.25}, "SetVelocityCommand",
@@ -92,13 +96,23 @@ def test_sample_to_command(topic: str, sample: dict[str, Any], name: str,
     assert dict(command.fields) == fields
     assert command.service == f"urn:jaus:jss:mobility:{service}"
     assert command.stop is not None and all(v == 0 for v in command.stop.values())
+    if topic in STOP:
+        assert dict(command.stop) == STOP[topic]
     # and the command really encodes
     payload = CAT.encode(name, command.fields)
     assert CAT.decode(payload).name == name
 
 
+def test_wrench_without_any_effort_is_ignored() -> None:
+    sample = {"vehicle_id": "ugv1", "operator_id": "op1", "propulsive_linear_x": None}
+    assert MobilityTranslator().on_sample("WrenchEffortCommand", sample, CTX) == []
+
+
 def test_wanted_reports_query_all_fields_and_encode() -> None:
     for spec in MobilityTranslator.reports:
         payload = CAT.encode(spec.query, spec.query_fields)
-        assert CAT.decode(payload).fields == {"presence_vector": 0x1FF}
+        # pose, velocity, acceleration: every field; the waypoint list drivers' queries
+        # (QueryActiveElement, QueryTravelSpeed) have no fields
+        expected = {"presence_vector": 0x1FF} if spec.query_fields else {}
+        assert CAT.decode(payload).fields == expected
         assert spec.report in MobilityTranslator.messages

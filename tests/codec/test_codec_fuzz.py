@@ -44,7 +44,8 @@ def inputs_for(defn: MessageDef) -> list[bytes]:
     bodies += [valid[:n] for n in range(min(len(valid), MAX_PREFIXES))]
     for _ in range(FLIPS if valid else 0):
         pos = rng.randrange(len(valid))
-        bodies.append(valid[:pos] + bytes([valid[pos] ^ (1 << rng.randrange(8))]) + valid[pos + 1 :])
+        flipped = bytes([valid[pos] ^ (1 << rng.randrange(8))])
+        bodies.append(valid[:pos] + flipped + valid[pos + 1 :])
     bodies.append(valid + b"\x00")
     return bodies
 

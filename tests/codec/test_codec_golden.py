@@ -214,9 +214,8 @@ def test_nested_records_in_a_list_of_variants() -> None:
     )
     decoded = decode_body(REPORT_RANGE_SENSOR_DATA, body)
     entries = decoded["range_sensor_data_list"]
-    assert entries[0] == {
-        "range_sensor_data_error_rec": {"sensor_id": 1, "data_error_code": 0, "error_message": "off"}
-    }
+    error = {"sensor_id": 1, "data_error_code": 0, "error_message": "off"}
+    assert entries[0] == {"range_sensor_data_error_rec": error}
     seq = entries[1]["range_sensor_data_seq"]
     assert seq["range_sensor_data_rec"] == {
         "sensor_id": 2, "report_coordinate_system": 1, "time_stamp": TS

@@ -1,0 +1,1 @@
+"""Coverage-guided fuzz targets for edge-vis's parsers (run with atheris)."""

@@ -1,0 +1,303 @@
+"""The sans-I/O bulk transfer protocol: frames, manifests, state machines, resume, garbage."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import struct
+
+import pytest
+
+from links.udt.protocol import (
+    HEADER,
+    MAGIC,
+    Accepted,
+    AtrMetadata,
+    Backoff,
+    BulkProtocolError,
+    DataComplete,
+    DataReceived,
+    FrameType,
+    Manifest,
+    ManifestError,
+    ManifestReceived,
+    ManifestRejected,
+    PeerErrored,
+    Position,
+    ProtocolErrorDetected,
+    Reason,
+    ReceiptReceived,
+    ReceiverConnection,
+    Refused,
+    SenderConnection,
+    State,
+    check_file_name,
+    encode_frame,
+    transfer_id_for,
+)
+
+CONTENT = bytes(range(256)) * 40  # 10 240 bytes
+
+
+def make_manifest(content: bytes = CONTENT, name: str = "sonar_0001.png", **kw: object) -> Manifest:
+    sha = hashlib.sha256(content).hexdigest()
+    fields = {
+        "transfer_id": transfer_id_for("uuv1", name, sha), "vehicle_id": "uuv1", "name": name,
+        "size": len(content), "sha256": sha, "image_format": "png",
+        "capture_time": 1_700_000_000.25,
+        "atr": AtrMetadata("mine-like", 0.87, Position(36.5, -121.9, 42.0)),
+    }
+    fields.update(kw)
+    return Manifest(**fields)  # type: ignore[arg-type]
+
+
+def pump(a: SenderConnection | ReceiverConnection, b: SenderConnection | ReceiverConnection,
+         now: float = 0.0, piece: int | None = None) -> list[object]:
+    """Move a's queued bytes into b (optionally in small pieces); return b's events."""
+    data = a.data_to_send()
+    if piece is None:
+        return b.receive_data(data, now)
+    events: list[object] = []
+    for i in range(0, len(data), piece):
+        events += b.receive_data(data[i:i + piece], now)
+    return events
+
+
+def run_transfer(sender: SenderConnection, receiver: ReceiverConnection, content: bytes,
+                 held: bytes, chunk: int = 1000, piece: int | None = None
+                 ) -> tuple[bytearray, list[object]]:
+    """Drive one transfer where the receiver already holds ``held``; return what it stored."""
+    stored = bytearray(held)
+    m = make_manifest(content)
+    sender.send_manifest(m, 0.0)
+    events = pump(sender, receiver, piece=piece)
+    assert events == [ManifestReceived(m)]
+    receiver.accept(len(held))
+    (accepted,) = pump(receiver, sender)
+    assert accepted == Accepted(m.transfer_id, len(held))
+    trail: list[object] = []
+    pos = accepted.offset
+    while sender.state is State.SENDING:
+        sender.send_data(content[pos:pos + chunk], 0.0)
+        pos += len(content[pos:pos + chunk])
+        for ev in pump(sender, receiver, piece=piece):
+            if isinstance(ev, DataReceived):
+                assert ev.offset == len(stored)
+                stored += ev.data
+            else:
+                trail.append(ev)
+    return stored, trail
+
+
+def test_full_transfer_then_receipt_and_next_manifest():
+    s, r = SenderConnection(), ReceiverConnection()
+    stored, trail = run_transfer(s, r, CONTENT, b"", piece=7)
+    assert bytes(stored) == CONTENT
+    assert trail == [DataComplete(make_manifest())]
+    r.send_receipt(True, hashlib.sha256(stored).hexdigest())
+    (receipt,) = pump(r, s)
+    assert isinstance(receipt, ReceiptReceived) and receipt.ok
+    assert receipt.sha256 == make_manifest().sha256
+    assert s.state is State.IDLE and r.state is State.AWAIT_MANIFEST
+    # The same connection carries the next file.
+    s.send_manifest(make_manifest(b"second", name="b.png"), 1.0)
+    assert isinstance(pump(s, r)[0], ManifestReceived)
+
+
+def test_resume_sends_only_the_rest():
+    s, r = SenderConnection(), ReceiverConnection()
+    held = CONTENT[:6000]
+    stored, trail = run_transfer(s, r, CONTENT, held)
+    assert bytes(stored) == CONTENT
+    assert s.offset == len(CONTENT)
+    assert isinstance(trail[-1], DataComplete)
+
+
+def test_accept_at_full_size_completes_without_data():
+    s, r = SenderConnection(), ReceiverConnection()
+    m = make_manifest()
+    s.send_manifest(m, 0.0)
+    pump(s, r)
+    assert r.accept(m.size) == [DataComplete(m)]
+    assert pump(r, s) == [Accepted(m.transfer_id, m.size)]
+    assert s.state is State.AWAIT_RECEIPT
+
+
+def test_refusal_reaches_sender_with_code_and_reason():
+    s, r = SenderConnection(), ReceiverConnection()
+    s.send_manifest(make_manifest(), 0.0)
+    pump(s, r)
+    r.refuse(Reason.QUOTA, "spool quota full: needs 10 KiB")
+    (ev,) = pump(r, s)
+    tid = make_manifest().transfer_id
+    assert ev == Refused(tid, Reason.QUOTA, "spool quota full: needs 10 KiB")
+    assert s.state is State.IDLE and r.state is State.AWAIT_MANIFEST
+
+
+def test_manifest_round_trips_through_json():
+    m = make_manifest()
+    assert Manifest.from_json(m.to_json()) == m
+    bare = make_manifest(atr=None)
+    assert "atr" not in json.loads(bare.to_json())
+    assert Manifest.from_json(bare.to_json()) == bare
+
+
+@pytest.mark.parametrize(
+    ("name", "reason"),
+    [
+        ("../x", "path separator"),
+        ("/etc/passwd", "absolute path"),
+        ("\\\\server\\share", "absolute path"),
+        ("C:evil.png", "absolute path"),
+        ("a\x00b.png", "NUL"),
+        ("..", "not a file"),
+        (".", "not a file"),
+        ("", "empty"),
+        ("line\nbreak", "control character"),
+        ("x" * 256, "255 bytes"),
+        ("sub/dir.png", "path separator"),
+    ],
+)
+def test_file_names_that_could_escape_are_refused(name: str, reason: str):
+    with pytest.raises(ManifestError, match=reason) as info:
+        check_file_name(name)
+    assert info.value.code is Reason.BAD_NAME
+    # And over the wire: a REFUSE with BAD_NAME, connection still usable.
+    s, r = SenderConnection(), ReceiverConnection()
+    raw = json.loads(make_manifest().to_json())
+    raw["name"] = name
+    s._out.append(encode_frame(FrameType.MANIFEST, json.dumps(raw).encode()))
+    (ev,) = pump(s, r)
+    assert isinstance(ev, ManifestRejected) and ev.code is Reason.BAD_NAME
+    assert reason in ev.reason
+    assert r.state is State.AWAIT_MANIFEST
+    frame = r.data_to_send()
+    assert frame[3] == FrameType.REFUSE
+
+
+@pytest.mark.parametrize(
+    ("mutate", "message"),
+    [
+        (lambda d: d.pop("sha256"), "manifest.sha256 is missing"),
+        (lambda d: d.update(sha256="ABC"), "64 lower-case hex"),
+        (lambda d: d.update(size=-1), "manifest.size"),
+        (lambda d: d.update(size=True), "manifest.size"),
+        (lambda d: d.update(size=2**41), "manifest.size"),
+        (lambda d: d.update(extra=1), "unknown field(s) extra"),
+        (lambda d: d.update(vehicle_id="../v"), "manifest.vehicle_id"),
+        (lambda d: d.update(transfer_id=""), "manifest.transfer_id"),
+        (lambda d: d.update(capture_time="yesterday"), "manifest.capture_time"),
+        (lambda d: d["atr"].update(confidence=1.5), "manifest.atr.confidence"),
+        (lambda d: d["atr"]["position"].update(latitude=91), "latitude"),
+        (lambda d: d.update(image_format="PNG image"), "image_format"),
+    ],
+)
+def test_bad_manifest_fields_are_named(mutate, message):
+    raw = json.loads(make_manifest().to_json())
+    mutate(raw)
+    with pytest.raises(ManifestError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        Manifest.from_mapping(raw)
+
+
+def test_manifest_that_is_not_json():
+    r = ReceiverConnection()
+    (ev,) = r.receive_data(encode_frame(FrameType.MANIFEST, b"{not json"), 0.0)
+    assert isinstance(ev, ManifestRejected) and ev.code is Reason.BAD_MANIFEST
+    assert "not valid JSON" in ev.reason
+
+
+@pytest.mark.parametrize(
+    ("data", "reason"),
+    [
+        (b"GET / HTTP/1.1\r\n\r\n", "bad frame magic"),
+        (HEADER.pack(MAGIC, 9, 1, 10) + bytes(10), "unsupported protocol version 9"),
+        (HEADER.pack(MAGIC, 1, 77, 0), "unknown frame type 77"),
+        (HEADER.pack(MAGIC, 1, FrameType.MANIFEST, 10_000_000), "MANIFEST frame length 10000000"),
+        (HEADER.pack(MAGIC, 1, FrameType.DATA, 5) + b"hello", "unexpected DATA frame"),
+        (encode_frame(FrameType.ACCEPT, bytes(8)), "unexpected ACCEPT frame"),
+    ],
+)
+def test_garbage_is_a_protocol_error_with_a_specific_reason(data: bytes, reason: str):
+    r = ReceiverConnection()
+    events = r.receive_data(data, 0.0)
+    assert isinstance(events[-1], ProtocolErrorDetected)
+    assert reason in events[-1].reason
+    assert r.state is State.CLOSED
+    reply = r.data_to_send()
+    assert reply[:2] == MAGIC and reply[3] == FrameType.ERROR
+    assert reason in reply[HEADER.size + 2:].decode()
+    assert r.receive_data(b"more", 1.0) == []  # finished: ignores the rest
+
+
+def test_data_past_the_declared_size_is_refused():
+    s, r = SenderConnection(), ReceiverConnection()
+    m = make_manifest(b"0123456789")
+    s.send_manifest(m, 0.0)
+    pump(s, r)
+    r.accept(0)
+    pump(r, s)
+    # A broken sender: 16 bytes for a 10-byte manifest.
+    events = r.receive_data(encode_frame(FrameType.DATA, b"x" * 16), 0.0)
+    assert isinstance(events[-1], ProtocolErrorDetected)
+    assert events[-1].code is Reason.SIZE_MISMATCH
+    assert "manifest says 10 bytes" in events[-1].reason
+    # Our own sender refuses to do that.
+    with pytest.raises(BulkProtocolError):
+        s.send_data(b"x" * 16, 0.0)
+
+
+def test_frames_before_garbage_in_the_same_read_are_kept():
+    s, r = SenderConnection(), ReceiverConnection()
+    m = make_manifest(b"abcdef")
+    s.send_manifest(m, 0.0)
+    pump(s, r)
+    r.accept(0)
+    events = r.receive_data(encode_frame(FrameType.DATA, b"abc") + b"JUNKJUNKJUNK", 0.0)
+    assert events[0] == DataReceived(m.transfer_id, 0, b"abc")
+    assert isinstance(events[1], ProtocolErrorDetected)
+
+
+def test_peer_error_frame_ends_the_connection():
+    s = SenderConnection()
+    s.send_manifest(make_manifest(), 0.0)
+    payload = struct.pack(">H", Reason.SHUTDOWN) + b"receiver shutting down"
+    (ev,) = s.receive_data(encode_frame(FrameType.ERROR, payload), 1.0)
+    assert ev == PeerErrored(Reason.SHUTDOWN, "receiver shutting down")
+    assert s.state is State.CLOSED
+
+
+def test_idle_timeout_uses_the_given_clock():
+    r = ReceiverConnection(idle_timeout=5.0)
+    s = SenderConnection()
+    s.send_manifest(make_manifest(), 100.0)
+    r.receive_data(s.data_to_send(), 100.0)
+    r.accept(0)
+    assert r.next_deadline() == 105.0
+    assert r.handle_timer(104.9) == []
+    (ev,) = r.handle_timer(105.0)
+    assert isinstance(ev, ProtocolErrorDetected) and ev.code is Reason.TIMEOUT
+
+
+def test_local_misuse_raises():
+    r = ReceiverConnection()
+    with pytest.raises(BulkProtocolError):
+        r.accept(0)
+    s = SenderConnection()
+    with pytest.raises(BulkProtocolError):
+        s.send_data(b"x", 0.0)
+
+
+def test_transfer_id_is_stable_and_distinct():
+    a = transfer_id_for("uuv1", "a.png", "0" * 64)
+    assert a == transfer_id_for("uuv1", "a.png", "0" * 64)
+    assert a != transfer_id_for("uuv2", "a.png", "0" * 64)
+    assert a != transfer_id_for("uuv1", "a.png", "1" * 64)
+
+
+def test_backoff_grows_caps_and_resets():
+    b = Backoff(initial=0.1, factor=2.0, maximum=1.0, jitter=0.0)
+    assert [round(b.next_delay(), 3) for _ in range(6)] == [0.1, 0.2, 0.4, 0.8, 1.0, 1.0]
+    b.reset()
+    assert b.next_delay() == pytest.approx(0.1)
+    jittery = Backoff(initial=1.0, jitter=0.1, seed=4)
+    assert 0.9 <= jittery.next_delay() <= 1.1

@@ -1,0 +1,289 @@
+"""Bulk image transfer over real UDT sockets on loopback: relay chain, resume, bad input."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import struct
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("udt4py")
+
+from conftest import RawClient, free_udp_port, sha, wait_for
+from lossy_proxy import LossyProxy
+
+from links.udt import UdtLink
+from links.udt.protocol import (
+    HEADER,
+    FrameType,
+    Manifest,
+    Reason,
+    encode_frame,
+    transfer_id_for,
+)
+
+pytestmark = pytest.mark.udt
+
+FAST = UdtLink.Backoff(initial=0.02, maximum=0.2, jitter=0.0)
+
+
+def manifest(content: bytes, name: str = "img.png", **over: object) -> Manifest:
+    digest = sha(content)
+    fields: dict[str, object] = {
+        "transfer_id": transfer_id_for("uuv1", name, digest), "vehicle_id": "uuv1",
+        "name": name, "size": len(content), "sha256": digest, "image_format": "png",
+        "capture_time": 1.7e9,
+    }
+    fields.update(over)
+    return Manifest(**fields)  # type: ignore[arg-type]
+
+
+def test_20mb_vehicle_to_relay_to_operator(tmp_path: Path, make_file):
+    path, content = make_file(20 << 20, "sonar_0001.png")
+    published: list[tuple[str, dict]] = []
+    with UdtLink.ImageService(tmp_path / "ops") as ops, UdtLink.ImageService(
+        tmp_path / "relay", forward=[ops.address],
+        publish=lambda topic, sample: published.append((topic, sample)),
+    ) as relay:
+        atr = UdtLink.AtrMetadata("mine-like", 0.91, UdtLink.Position(36.6, -121.9, 18.5))
+        m = UdtLink.manifest_for_file(path, vehicle_id="uuv1", atr=atr, capture_time=1.7e9)
+        result = UdtLink.send_image(path, relay.address, manifest=m)
+        assert result.ok, result.reason
+        final = tmp_path / "ops" / "uuv1" / "sonar_0001.png"
+        wait_for(lambda: relay.spool.reserved_bytes() == 0, 20, "the relay to forward")
+        assert sha(final.read_bytes()) == sha(content)
+        assert list((tmp_path / "relay" / ".spool" / "ready").iterdir()) == []
+    topics = [t for t, _ in published]
+    (product,) = [s for t, s in published if t == "ImageProduct"]
+    assert product["file_name"] == "sonar_0001.png" and product["sha256"] == sha(content)
+    assert product["size_bytes"] == len(content) and product["capture_time_ms"] == 1_700_000_000_000
+    assert product["targets"] == [{"target_class": "mine-like", "confidence": 0.91,
+                                   "latitude": 36.6, "longitude": -121.9, "depth": 18.5}]
+    chunks = [s for t, s in published if t == "ImageData"]
+    assert b"".join(c["data"] for c in chunks) == content
+    assert {c["chunk_count"] for c in chunks} == {len(chunks)}
+    assert max(len(c["data"]) for c in chunks) <= 64 * 1024
+    states = [s["state"] for t, s in published if t == "TransferStatus"]
+    assert states[0] == "TRANSFER_ACTIVE" and states[-1] == "TRANSFER_COMPLETE"
+    # Announced only after verification: the product comes after the last status change.
+    assert topics.index("ImageProduct") > topics.index("TransferStatus")
+
+
+def test_transfer_interrupted_ten_times_completes(tmp_path: Path, make_file):
+    path, content = make_file(6 << 20)
+    with UdtLink.ImageService(tmp_path / "ops") as ops:
+        drops = 0
+        done = threading.Event()
+
+        def cut_the_link() -> None:
+            nonlocal drops
+            last = 0
+            while drops < 10 and not done.is_set():
+                entries = [e for e in ops.spool._entries.values() if e.handle is not None]
+                if entries and entries[0].written - last >= 300_000:
+                    last = entries[0].written
+                    drops += ops.receiver.drop_connections() > 0
+                time.sleep(0.005)
+
+        cutter = threading.Thread(target=cut_the_link)
+        cutter.start()
+        result = UdtLink.send_image(path, ops.address, vehicle_id="uuv1",
+                                    max_rate_bps=24_000_000, backoff=FAST, give_up_after=20)
+        done.set()
+        cutter.join()
+    assert result.ok, result.reason
+    assert drops == 10
+    assert result.attempts >= 11
+    resumed = [o for o in result.resumed_from if o]
+    assert len(resumed) >= 10 and resumed == sorted(resumed)
+    assert (tmp_path / "ops" / "uuv1" / "img.png").read_bytes() == content
+
+
+def _receiver_process(out: Path, port: int) -> subprocess.Popen[str]:
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "edge_vis", "receive-images", "--dir", str(out),
+         "--listen", f"127.0.0.1:{port}"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    assert proc.stdout is not None
+    line = proc.stdout.readline()
+    assert "receiving images on" in line, line + proc.stderr.read() if proc.stderr else ""
+    return proc
+
+
+def test_receiver_killed_mid_transfer_resumes_from_its_journal(tmp_path: Path, make_file):
+    path, content = make_file(8 << 20)
+    port = free_udp_port()
+    out = tmp_path / "ops"
+    proc = _receiver_process(out, port)
+    results = []
+    sender = threading.Thread(target=lambda: results.append(UdtLink.send_image(
+        path, ("127.0.0.1", port), vehicle_id="uuv1", max_rate_bps=16_000_000,
+        backoff=UdtLink.Backoff(initial=0.1, maximum=0.3), give_up_after=20,
+        stall_timeout=1.5)))
+    sender.start()
+    part = out / ".spool" / "partial" / f"{transfer_id_for('uuv1', 'img.png', sha(content))}.part"
+    journal = out / ".spool" / "journal.log"
+
+    def durable() -> int:
+        records = [json.loads(x) for x in journal.read_text().split()] if journal.exists() else []
+        return max([r["n"] for r in records if r["op"] == "durable"], default=0)
+
+    try:
+        wait_for(lambda: durable() > 1_000_000, 15, "a megabyte made durable")
+        proc.send_signal(signal.SIGKILL)  # power cut: no clean shutdown
+        proc.wait(5)
+        held = durable()
+        assert part.stat().st_size >= held
+        assert held < len(content)
+        proc = _receiver_process(out, port)
+        sender.join(30)
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(10)
+    (result,) = results
+    assert result.ok, result.reason
+    assert any(0 < o <= held for o in result.resumed_from), result.resumed_from
+    assert (out / "uuv1" / "img.png").read_bytes() == content
+
+
+def test_forwarding_waits_for_a_target_that_is_down(tmp_path: Path, make_file):
+    path, content = make_file(300_000)
+    port = free_udp_port()
+    with UdtLink.ImageService(
+        tmp_path / "relay", forward=[("127.0.0.1", port)],
+        forward_backoff=UdtLink.Backoff(initial=0.1, maximum=0.3),
+    ) as relay:
+        assert UdtLink.send_image(path, relay.address, vehicle_id="uuv1").ok
+        time.sleep(1.0)  # the operator station is down: the file waits in the relay's spool
+        queued = list(relay.spool.outbox(f"127.0.0.1:{port}"))
+        assert [m.name for m, _ in queued] == ["img.png"]
+        assert queued[0][1].read_bytes() == content
+        with UdtLink.ImageService(tmp_path / "ops", ("127.0.0.1", port)):
+            final = tmp_path / "ops" / "uuv1" / "img.png"
+            wait_for(final.exists, 10, "the forwarded file")
+            wait_for(lambda: relay.spool.reserved_bytes() == 0, 5, "the relay to let go")
+        assert final.read_bytes() == content
+
+
+def test_rate_budget_is_respected(tmp_path: Path, make_file):
+    path, content = make_file(1_500_000)
+    with UdtLink.ImageService(tmp_path / "ops") as ops:
+        started = time.monotonic()
+        result = UdtLink.send_image(path, ops.address, max_rate_bps=8_000_000)
+        elapsed = time.monotonic() - started
+    assert result.ok
+    # 12 Mbit at 8 Mbit/s cannot take less than 1.5 s; allow for UDT's startup burst.
+    assert elapsed > 0.7 * len(content) * 8 / 8_000_000
+
+
+def test_transfer_through_a_lossy_delaying_rate_limited_link(tmp_path: Path, make_file):
+    path, content = make_file(400_000)
+    with UdtLink.ImageService(tmp_path / "ops") as ops, LossyProxy(
+        ops.address, loss=0.02, delay=0.01, jitter=0.002, rate_bps=20e6, seed=11, lifetime=40,
+    ) as proxy:
+        result = UdtLink.send_image(path, proxy.address, vehicle_id="uuv1", give_up_after=30)
+    assert result.ok, result.reason
+    assert proxy.counters["up_lost"] + proxy.counters["down_lost"] > 0
+    assert (tmp_path / "ops" / "uuv1" / "img.png").read_bytes() == content
+
+
+# --------------------------------------------------------------------------- bad input
+
+
+@pytest.fixture
+def receiver(tmp_path: Path):
+    with UdtLink.ImageService(tmp_path / "out", quota_bytes=1 << 20) as svc:
+        yield svc
+        # Whatever happened before, the receiver still serves a good transfer ...
+        good = tmp_path / "good.png"
+        good.write_bytes(b"still serving" * 100)
+        assert UdtLink.send_image(good, svc.address, vehicle_id="uuv1").ok
+        assert (tmp_path / "out" / "uuv1" / "good.png").exists()
+    # ... and nothing was written outside the output directory.
+    outside = {p.name for p in tmp_path.iterdir()} - {"out", "good.png", "vehicle"}
+    assert outside == set()
+    assert not (tmp_path / "x").exists()
+
+
+def test_data_beyond_the_manifest_size_is_refused(receiver, tmp_path: Path):
+    m = manifest(b"0123456789")
+    client = RawClient(receiver.address)
+    client.send(encode_frame(FrameType.MANIFEST, m.to_json()))
+    assert client.frame() == (FrameType.ACCEPT, struct.pack(">Q", 0))
+    client.send(encode_frame(FrameType.DATA, b"x" * 25))
+    ftype, payload = client.frame()
+    assert ftype is FrameType.ERROR
+    assert struct.unpack(">H", payload[:2])[0] == Reason.SIZE_MISMATCH
+    assert "manifest says 10 bytes" in payload[2:].decode()
+    client.close()
+    assert not (tmp_path / "out" / "uuv1").exists()
+
+
+def test_content_not_matching_the_manifest_hash_fails_the_receipt(receiver, make_file):
+    path, content = make_file(200_000)
+    lie = manifest(b"\x00" * len(content))  # right size, other content
+    result = UdtLink.send_image(path, receiver.address, manifest=lie)
+    assert not result.ok
+    assert result.code is Reason.HASH_MISMATCH
+    assert "SHA-256 mismatch" in result.reason
+
+
+def test_garbage_connection_gets_a_reason_and_the_receiver_carries_on(receiver):
+    client = RawClient(receiver.address)
+    client.send(b"GET /images HTTP/1.1\r\nHost: relay\r\n\r\n")
+    ftype, payload = client.frame()
+    assert ftype is FrameType.ERROR
+    assert "bad frame magic" in payload[2:].decode()
+    client.close()
+    assert receiver.receiver.counters["protocol_errors"] == 1
+
+
+@pytest.mark.parametrize("name", ["../x", "/tmp/x", "a\x00b.png", "..", "sub/x.png"])
+def test_file_names_escaping_the_spool_are_refused(receiver, name: str):
+    raw = json.loads(manifest(b"payload").to_json())
+    raw["name"] = name
+    client = RawClient(receiver.address)
+    client.send(encode_frame(FrameType.MANIFEST, json.dumps(raw).encode()))
+    ftype, payload = client.frame()
+    assert ftype is FrameType.REFUSE
+    assert struct.unpack(">H", payload[:2])[0] == Reason.BAD_NAME
+    assert "manifest.name" in payload[2:].decode()
+    # The same connection may go on with a proper manifest.
+    client.send(encode_frame(FrameType.MANIFEST, manifest(b"payload").to_json()))
+    assert client.frame()[0] is FrameType.ACCEPT
+    client.close()
+
+
+def test_transfer_bigger_than_the_quota_is_refused(receiver, make_file):
+    path, _ = make_file(2 << 20)
+    result = UdtLink.send_image(path, receiver.address, vehicle_id="uuv1")
+    assert not result.ok and result.code is Reason.QUOTA
+    assert "spool quota full: img.png needs 2.0 MiB" in result.reason
+    assert list((receiver.spool.root / "partial").iterdir()) == []
+
+
+def test_oversized_frame_header_is_refused_without_buffering(receiver):
+    client = RawClient(receiver.address)
+    client.send(HEADER.pack(b"EB", 1, FrameType.MANIFEST, 1 << 31))
+    ftype, payload = client.frame()
+    assert ftype is FrameType.ERROR and "outside 2..16384" in payload[2:].decode()
+    client.close()
+
+
+def test_sender_reports_a_receiver_that_never_answers(make_file):
+    path, _ = make_file(1000)
+    started = time.monotonic()
+    result = UdtLink.send_image(path, ("127.0.0.1", free_udp_port()), backoff=FAST,
+                                give_up_after=1.0)
+    assert not result.ok and result.code is Reason.TIMEOUT
+    assert "no progress" in result.reason
+    assert time.monotonic() - started < 10
+    assert os.path.exists(path)

@@ -1,0 +1,647 @@
+"""Declarative JAUS <-> DDS mappings, and the ``generic`` translator built from a profile. No I/O.
+
+Most translation is a table: *this field of that report goes to that member of this topic,
+converted so*. This module holds the table's vocabulary, and :class:`RuleTranslator`, a
+:class:`~edge_vis.translator.Translator` that runs such tables. The same rule objects are
+what ``edge-vis mappings`` prints (through :meth:`RuleTranslator.describe`), so the
+documentation cannot drift from what runs.
+
+JAUS -> DDS, a :class:`ReportRule`: ``fields`` maps each DDS member to a value spec:
+
+* :class:`From` - a decoded JAUS field by dotted path (``"platform_spec.front"``). A path
+  step ``*`` takes the value of a variant whatever its alternative
+  (``{"radian": 1.2}`` -> ``1.2``). Absent optional fields give the spec's default
+  (NaN for measurements, so "not reported" never reads as zero);
+* :class:`Each` - a DDS sequence built from a JAUS list, one item per element;
+* :class:`Const` - a fixed value; :class:`Computed` - a small function, with a note saying
+  which JAUS fields it reads.
+
+``split`` makes one sample per element of a JAUS list (one ``RangeScan`` per sensor of a
+``ReportRangeSensorData``); ``require`` skips elements without that path (an error
+alternative of a variant). ``merge`` keeps the latest value of every member per instance,
+so a state topic fed by several reports (``PlatformStatus`` from ``ReportPlatformState``
+and ``ReportPlatformMode``) never clears what another report said.
+
+DDS -> JAUS, a :class:`CommandRule`: ``fields`` maps JAUS field paths to :class:`Put`
+(one DDS member, clamped to the JAUS field's limits) or :class:`PutEach` (a JAUS list from
+a DDS sequence). ``when`` selects the rule by sample values (``{"quantity": "position"}``),
+so one topic can drive several messages. Commands go out as
+:class:`~edge_vis.engine.actions.Command`: the engine gates them on control and throttles
+them.
+
+The ``generic`` translator (:class:`GenericTranslator`) reads rules from the deployment
+profile instead of Python, for messages a user loads from JSIDL::
+
+    [[translators.generic.mappings]]
+    message = "ReportWaterQuality"        # a message of the user's JSIDL
+    topic = "WaterQuality"                # DDS topic (type edge_vis::GenericReport)
+    query = "QueryWaterQuality"           # optional: how to ask for it ...
+    service = "urn:example:WaterQuality"  # ... from which service
+    rate = 0.5                            # Hz
+    fields = { turbidity = "turbidity", ph = "chemistry.ph" }   # DDS name = JAUS path
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Union
+
+from edge_vis.engine.actions import Action, Command, Publish
+from edge_vis.errors import ConfigError
+from edge_vis.translator import ReportSpec, Translator, TranslatorContext
+
+log = logging.getLogger(__name__)
+
+NAN = math.nan
+
+# ---------------------------------------------------------------------------------- values
+
+
+@dataclass(frozen=True, slots=True)
+class From:
+    """A DDS member taken from the JAUS field at ``path``, optionally converted."""
+
+    path: str
+    convert: Callable[[Any], Any] | None = None
+    default: Any = NAN
+    note: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class Each:
+    """A DDS sequence from the JAUS list at ``path``: per element, ``item`` (a spec for a
+    sequence of scalars, or a mapping of member -> spec for a sequence of structs)."""
+
+    path: str
+    item: Union[Spec, Mapping[str, Spec]]  # noqa: UP007 - Spec is a forward reference
+    note: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class Const:
+    """A fixed DDS value."""
+
+    value: Any
+    note: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class Computed:
+    """A DDS value computed from the whole JAUS field dict; ``note`` says from what."""
+
+    fn: Callable[[Mapping[str, Any]], Any]
+    note: str
+
+
+Spec = Union[From, Each, Const, Computed]  # noqa: UP007
+
+
+@dataclass(frozen=True, slots=True)
+class ReportRule:
+    """JAUS message ``message`` -> a sample of DDS ``topic`` (see the module docstring).
+
+    ``query``/``service``/``query_fields``/``rate``/``on_change`` become the
+    :class:`~edge_vis.translator.ReportSpec` the engine subscribes with; without
+    ``query`` the message is taken as it comes (unsolicited, or asked for elsewhere).
+    """
+
+    message: str
+    topic: str
+    fields: Mapping[str, Spec]
+    query: str = ""
+    service: str = ""
+    query_fields: Mapping[str, Any] = field(default_factory=dict)
+    rate: float = 1.0
+    on_change: bool = False
+    split: str = ""
+    require: str = ""
+    keys: tuple[str, ...] = ()
+    merge: bool = False
+    stamp: bool = True
+    doc: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class Put:
+    """A JAUS field from DDS member ``dds``: numbers clamped to ``[low, high]``, then
+    ``convert``. ``optional``: an absent/None/NaN member leaves the JAUS field out;
+    otherwise it becomes ``default``."""
+
+    dds: str
+    low: float | None = None
+    high: float | None = None
+    convert: Callable[[Any], Any] | None = None
+    default: Any = 0.0
+    optional: bool = False
+    note: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class PutEach:
+    """A JAUS list from the DDS sequence ``dds``: ``item(value, index, sample)`` builds
+    each element."""
+
+    dds: str
+    item: Callable[[Any, int, Mapping[str, Any]], Any]
+    note: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class CommandRule:
+    """A sample of DDS ``topic`` (matching ``when``) -> JAUS command ``message`` to the
+    component offering ``service``; ``kind`` groups commands for throttling and ``stop``,
+    when given, makes it a motion command (dead-man stop, refused in emergency): the stop
+    fields, or a function of the command's fields giving them (a zero per joint)."""
+
+    topic: str
+    message: str
+    service: str
+    kind: str
+    fields: Mapping[str, Put | PutEach]
+    when: Mapping[str, Any] = field(default_factory=dict)
+    stop: Mapping[str, Any] | Callable[[Mapping[str, Any]], Mapping[str, Any]] | None = None
+    doc: str = ""
+
+
+# ---------------------------------------------------------------------------------- helpers
+
+
+def get_path(fields: Any, path: str, default: Any = None) -> Any:
+    """The value at dotted ``path`` in decoded fields (``*`` enters a variant)."""
+    value = fields
+    if not path:
+        return value
+    for step in path.split("."):
+        if not isinstance(value, Mapping):
+            return default
+        if step == "*":
+            if len(value) != 1:
+                return default
+            value = next(iter(value.values()))
+        elif step in value:
+            value = value[step]
+        else:
+            return default
+    return value
+
+
+def set_path(fields: dict[str, Any], path: str, value: Any) -> None:
+    """Set dotted ``path`` in ``fields``, creating the records on the way."""
+    steps = path.split(".")
+    for step in steps[:-1]:
+        fields = fields.setdefault(step, {})
+    fields[steps[-1]] = value
+
+
+def label(labels: Mapping[int, str], unknown: str = "UNKNOWN") -> Callable[[Any], str]:
+    """Converter: a JAUS enumeration value -> its name (``unknown_<n>`` if unlisted)."""
+
+    def convert(value: Any) -> str:
+        if value is None:
+            return unknown
+        return labels.get(int(value), f"{unknown}_{int(value)}")
+
+    return convert
+
+
+def code_of(labels: Mapping[int, str]) -> Callable[[Any], int]:
+    """Converter: a name (any case; spaces or underscores) or number -> the JAUS value."""
+    by_name = {_norm(name): value for value, name in labels.items()}
+
+    def convert(value: Any) -> int:
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            return int(value)
+        key = _norm(str(value))
+        if key not in by_name:
+            raise ValueError(f"{value!r} is not one of {', '.join(labels.values())}")
+        return by_name[key]
+
+    return convert
+
+
+def _norm(name: str) -> str:
+    return name.strip().upper().replace(" ", "_").replace("-", "_")
+
+
+def flags(value: Any) -> str:
+    """Converter: a decoded bit field -> the comma-joined names of its non-zero members."""
+    if not isinstance(value, Mapping):
+        return ""
+    return ",".join(name for name, bit in value.items() if bit)
+
+
+def number(value: Any) -> float:
+    """Converter: any number -> float (None -> NaN)."""
+    return NAN if value is None else float(value)
+
+
+def _finite(value: Any) -> bool:
+    return value is not None and not (isinstance(value, float) and math.isnan(value))
+
+
+def clamp(value: float, low: float | None, high: float | None) -> float:
+    """``value`` limited to ``[low, high]`` (either may be None)."""
+    if low is not None:
+        value = max(low, value)
+    if high is not None:
+        value = min(high, value)
+    return value
+
+
+# ---------------------------------------------------------------------------------- running
+
+
+def extract(spec: Spec, fields: Mapping[str, Any]) -> Any:
+    """Evaluate one value spec against decoded JAUS fields."""
+    if isinstance(spec, From):
+        value = get_path(fields, spec.path)
+        if value is None:
+            return spec.default
+        return spec.convert(value) if spec.convert is not None else value
+    if isinstance(spec, Each):
+        items = get_path(fields, spec.path) or []
+        out = []
+        for element in items:
+            if isinstance(spec.item, Mapping):
+                out.append({name: extract(sub, element) for name, sub in spec.item.items()})
+            else:
+                out.append(extract(spec.item, element))
+        return out
+    if isinstance(spec, Const):
+        return spec.value
+    return spec.fn(fields)
+
+
+def put(spec: Put | PutEach, sample: Mapping[str, Any]) -> tuple[bool, Any]:
+    """Evaluate one JAUS field spec against a DDS sample: (present, value)."""
+    if isinstance(spec, PutEach):
+        values = sample.get(spec.dds) or []
+        return True, [spec.item(v, i, sample) for i, v in enumerate(values)]
+    value = sample.get(spec.dds)
+    if not _finite(value):
+        if spec.optional:
+            return False, None
+        value = spec.default
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        value = clamp(float(value), spec.low, spec.high)
+    if spec.convert is not None:
+        value = spec.convert(value)
+    return True, value
+
+
+def _spec_source(spec: Spec) -> tuple[str, str]:
+    """(JAUS source, note) of a value spec, for the mapping table."""
+    if isinstance(spec, From):
+        return spec.path, spec.note
+    if isinstance(spec, Each):
+        if isinstance(spec.item, Mapping):
+            inner = ", ".join(f"{k}<-{_spec_source(v)[0]}" for k, v in spec.item.items())
+            return f"{spec.path}[] ({inner})", spec.note
+        return f"{spec.path}[].{_spec_source(spec.item)[0]}", spec.note
+    if isinstance(spec, Const):
+        return f"= {spec.value!r}", spec.note
+    return "(computed)", spec.note
+
+
+class RuleTranslator(Translator):
+    """A translator that runs :class:`ReportRule` and :class:`CommandRule` tables.
+
+    Subclasses set ``report_rules`` and ``command_rules``; ``messages``, ``reports``,
+    ``publishes``, ``subscribes`` and ``controlled_services`` are derived from them (plus
+    anything the subclass lists itself in ``extra_messages`` / ``extra_publishes``).
+    ``shared_publishes`` are topics also written by another translator (image products):
+    they are left out of ``publishes`` so the manager's one-writer check passes.
+    """
+
+    report_rules: ClassVar[tuple[ReportRule, ...]] = ()
+    command_rules: ClassVar[tuple[CommandRule, ...]] = ()
+    extra_messages: ClassVar[tuple[str, ...]] = ()
+    extra_publishes: ClassVar[tuple[str, ...]] = ()
+    shared_publishes: ClassVar[tuple[str, ...]] = ()
+    #: names the mapping table lists as not translated, with the reason
+    not_translated: ClassVar[tuple[tuple[str, str], ...]] = ()
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls._derive()
+
+    @classmethod
+    def _derive(cls) -> None:
+        for name, value in _declarations(cls.report_rules, cls.command_rules,
+                                         cls.extra_messages, cls.extra_publishes,
+                                         cls.shared_publishes).items():
+            setattr(cls, name, value)
+
+    def __init__(self) -> None:
+        self._latest: dict[tuple[str, tuple[Any, ...]], dict[str, Any]] = {}
+        self._by_message: dict[str, list[ReportRule]] = {}
+        for rule in self.report_rules:
+            self._by_message.setdefault(rule.message, []).append(rule)
+        self._by_topic: dict[str, list[CommandRule]] = {}
+        for rule in self.command_rules:
+            self._by_topic.setdefault(rule.topic, []).append(rule)
+
+    # -- JAUS -> DDS -----------------------------------------------------------------------
+
+    def on_message(
+        self, name: str, fields: Mapping[str, Any], ctx: TranslatorContext
+    ) -> list[Action]:
+        if ctx.vehicle is None:
+            return []
+        actions: list[Action] = []
+        for rule in self._by_message.get(name, ()):
+            for sample in self.samples(rule, fields, ctx):
+                actions.append(Publish(rule.topic, sample))
+        return actions
+
+    def samples(self, rule: ReportRule, fields: Mapping[str, Any],
+                ctx: TranslatorContext) -> list[dict[str, Any]]:
+        """The DDS samples ``rule`` makes of one message (several when it splits)."""
+        assert ctx.vehicle is not None
+        roots: Sequence[Any] = get_path(fields, rule.split) or [] if rule.split else [fields]
+        out = []
+        for root in roots:
+            if rule.require and get_path(root, rule.require) is None:
+                continue
+            sample: dict[str, Any] = {"vehicle_id": ctx.vehicle.vehicle_id}
+            for member, spec in rule.fields.items():
+                sample[member] = extract(spec, root)
+            if rule.stamp:
+                sample["timestamp_ms"] = ctx.timestamp_ms
+            if rule.merge:
+                key = (rule.topic, tuple(sample.get(k) for k in ("vehicle_id", *rule.keys)))
+                merged = self._latest.setdefault(key, {})
+                merged.update(sample)
+                sample = dict(merged)
+            out.append(sample)
+        return out
+
+    # -- DDS -> JAUS -----------------------------------------------------------------------
+
+    def on_sample(
+        self, topic: str, sample: Mapping[str, Any], ctx: TranslatorContext
+    ) -> list[Action]:
+        actions: list[Action] = []
+        for rule in self._by_topic.get(topic, ()):
+            if not all(_matches(sample.get(k), v) for k, v in rule.when.items()):
+                continue
+            command = self.command(rule, sample)
+            if command is not None:
+                actions.append(command)
+        return actions
+
+    def command(self, rule: CommandRule, sample: Mapping[str, Any]) -> Command | None:
+        """The JAUS command ``rule`` makes of ``sample`` (None if a value is unusable)."""
+        fields: dict[str, Any] = {}
+        try:
+            for path, spec in rule.fields.items():
+                present, value = put(spec, sample)
+                if present:
+                    set_path(fields, path, value)
+        except (ValueError, TypeError) as exc:
+            log.warning("%s sample for %s not translated to %s: %s", rule.topic,
+                        sample.get("vehicle_id"), rule.message, exc)
+            return None
+        stop = rule.stop(fields) if callable(rule.stop) else rule.stop
+        return Command(str(sample.get("vehicle_id", "")), str(sample.get("operator_id", "")),
+                       rule.kind, rule.message, fields, rule.service,
+                       stop=dict(stop) if stop is not None else None)
+
+    # -- the mapping table -------------------------------------------------------------------
+
+    def describe(self) -> list[dict[str, Any]]:
+        """The rows ``edge-vis mappings`` prints: one per JAUS message and DDS topic."""
+        return describe_rules(self.name, self.report_rules, self.command_rules,
+                              self.not_translated)
+
+
+def _matches(value: Any, wanted: Any) -> bool:
+    if isinstance(wanted, tuple):
+        return any(_matches(value, w) for w in wanted)
+    if isinstance(wanted, str) and isinstance(value, str):
+        return _norm(value) == _norm(wanted)
+    return bool(value == wanted)
+
+
+def _declarations(report_rules: Sequence[ReportRule], command_rules: Sequence[CommandRule],
+                  extra_messages: Sequence[str] = (), extra_publishes: Sequence[str] = (),
+                  shared: Sequence[str] = ()) -> dict[str, tuple[Any, ...]]:
+    messages = dict.fromkeys([*(r.message for r in report_rules), *extra_messages])
+    reports = tuple(
+        ReportSpec(r.message, r.query, r.service, dict(r.query_fields), r.rate, r.on_change)
+        for r in report_rules if r.query
+    )
+    publishes = dict.fromkeys(t for t in [*(r.topic for r in report_rules), *extra_publishes]
+                              if t not in shared)
+    subscribes = dict.fromkeys(r.topic for r in command_rules)
+    controlled = dict.fromkeys(r.service for r in command_rules)
+    return {"messages": tuple(messages), "reports": _unique_reports(reports),
+            "publishes": tuple(publishes), "subscribes": tuple(subscribes),
+            "controlled_services": tuple(controlled)}
+
+
+def _unique_reports(reports: Sequence[ReportSpec]) -> tuple[ReportSpec, ...]:
+    seen: set[tuple[str, str]] = set()
+    out = []
+    for spec in reports:
+        if (spec.report, spec.service) not in seen:
+            seen.add((spec.report, spec.service))
+            out.append(spec)
+    return tuple(out)
+
+
+def describe_rules(translator: str, report_rules: Sequence[ReportRule],
+                   command_rules: Sequence[CommandRule],
+                   not_translated: Sequence[tuple[str, str]] = ()) -> list[dict[str, Any]]:
+    """Mapping-table rows of a rule table (see ``edge-vis mappings``)."""
+    rows: list[dict[str, Any]] = []
+    for r in report_rules:
+        rows.append({
+            "translator": translator, "direction": "jaus->dds", "message": r.message,
+            "topic": r.topic, "query": r.query, "service": r.service,
+            "rate": r.rate if r.query else None,
+            "fields": [{"dds": member, "jaus": _spec_source(spec)[0],
+                        "note": _spec_source(spec)[1]} for member, spec in r.fields.items()],
+            "doc": r.doc,
+        })
+    for c in command_rules:
+        when = ", ".join(f"{k}={v}" for k, v in c.when.items())
+        rows.append({
+            "translator": translator, "direction": "dds->jaus", "message": c.message,
+            "topic": c.topic, "query": "", "service": c.service, "rate": None,
+            "fields": [{"dds": s.dds, "jaus": path, "note": _put_note(s)}
+                       for path, s in c.fields.items()],
+            "doc": "; ".join(x for x in (f"when {when}" if when else "", c.doc) if x),
+        })
+    for name, why in not_translated:
+        rows.append({"translator": translator, "direction": "none", "message": name,
+                     "topic": "", "query": "", "service": "", "rate": None, "fields": [],
+                     "doc": why})
+    return rows
+
+
+def _put_note(spec: Put | PutEach) -> str:
+    if isinstance(spec, PutEach):
+        return spec.note or "one element per item"
+    parts = [spec.note] if spec.note else []
+    if spec.low is not None or spec.high is not None:
+        parts.append(f"clamped to [{spec.low}, {spec.high}]")
+    if spec.optional:
+        parts.append("absent = left out")
+    return "; ".join(parts)
+
+
+# ---------------------------------------------------------------------------------- generic
+
+
+@dataclass(frozen=True, slots=True)
+class GenericMapping:
+    """One profile mapping: JAUS ``message`` -> DDS ``topic`` (type GenericReport)."""
+
+    message: str
+    topic: str
+    fields: Mapping[str, str]
+    query: str = ""
+    service: str = ""
+    rate: float = 1.0
+    query_fields: Mapping[str, Any] = field(default_factory=dict)
+
+
+def generic_value(value: Any) -> dict[str, Any]:
+    """One ``GenericField`` value: text always, number when it is one."""
+    if isinstance(value, bool):
+        return {"text": str(value).lower(), "number": float(value)}
+    if isinstance(value, int | float):
+        return {"text": repr(value) if isinstance(value, float) else str(value),
+                "number": float(value)}
+    if isinstance(value, bytes | bytearray):
+        return {"text": bytes(value).hex(), "number": NAN}
+    if value is None:
+        return {"text": "", "number": NAN}
+    return {"text": str(value), "number": NAN}
+
+
+def parse_mappings(options: Mapping[str, Any], source: str = "",
+                   where: str = "translators.generic") -> tuple[GenericMapping, ...]:
+    """Validate the generic translator's profile table; ConfigError lists every problem."""
+    problems: list[tuple[str, str, str]] = []
+    out: list[GenericMapping] = []
+    items = options.get("mappings", [])
+    if not isinstance(items, list):
+        raise ConfigError([(source, f"{where}.mappings", "expected an array of tables")])
+    for key in options:
+        if key != "mappings":
+            problems.append((source, f"{where}.{key}", "unknown key"))
+    topics: dict[str, str] = {}
+    for i, item in enumerate(items):
+        at = f"{where}.mappings[{i}]"
+        if not isinstance(item, Mapping):
+            problems.append((source, at, "expected a table"))
+            continue
+        for key in item:
+            if key not in ("message", "topic", "fields", "query", "service", "rate",
+                           "query_fields"):
+                problems.append((source, f"{at}.{key}", "unknown key"))
+        message, topic = item.get("message"), item.get("topic")
+        fields = item.get("fields", {})
+        for key, value in (("message", message), ("topic", topic)):
+            if not isinstance(value, str) or not value:
+                problems.append((source, f"{at}.{key}", "missing (a non-empty string)"))
+        if isinstance(topic, str) and topic and not topic.replace("_", "").isalnum():
+            problems.append((source, f"{at}.topic", f"{topic!r}: letters, digits and '_' only"))
+        if not isinstance(fields, Mapping) or not all(
+                isinstance(v, str) and v for v in fields.values()):
+            problems.append((source, f"{at}.fields",
+                             "expected a table of DDS name = \"JAUS field path\""))
+            fields = {}
+        query, service = item.get("query", ""), item.get("service", "")
+        if bool(query) != bool(service):
+            problems.append((source, f"{at}.{'service' if query else 'query'}",
+                             "query and service go together"))
+        rate = item.get("rate", 1.0)
+        if isinstance(rate, bool) or not isinstance(rate, int | float) or not (
+                0 < float(rate) <= 1092):
+            problems.append((source, f"{at}.rate", f"expected a rate in Hz (0..1092], "
+                                                     f"got {rate!r}"))
+            rate = 1.0
+        query_fields = item.get("query_fields", {})
+        if not isinstance(query_fields, Mapping):
+            problems.append((source, f"{at}.query_fields", "expected a table"))
+            query_fields = {}
+        if isinstance(topic, str) and isinstance(message, str):
+            if topics.get(message) is not None:
+                problems.append((source, f"{at}.message",
+                                 f"{message} is already mapped to {topics[message]}"))
+            topics[message] = topic
+            out.append(GenericMapping(message, topic, dict(fields), str(query), str(service),
+                                      float(rate), dict(query_fields)))
+    if problems:
+        raise ConfigError(problems)
+    return tuple(out)
+
+
+class GenericTranslator(RuleTranslator):
+    """Any JAUS message -> a ``GenericReport``-typed topic, mapped in the profile.
+
+    Built empty (it translates nothing) until :meth:`configure` gives it the profile's
+    ``[translators.generic]`` table, or ``mappings`` are passed in.
+    """
+
+    name = "generic"
+
+    def __init__(self, mappings: Sequence[GenericMapping] = ()) -> None:
+        self.mappings: tuple[GenericMapping, ...] = ()
+        super().__init__()
+        self._set(tuple(mappings))
+
+    def configure(self, options: Mapping[str, Any], source: str = "") -> None:
+        """Take the mappings from the profile table ``options`` (ConfigError if bad)."""
+        self._set(parse_mappings(options, source))
+
+    def _set(self, mappings: tuple[GenericMapping, ...]) -> None:
+        self.mappings = mappings
+        rules = tuple(self._rule(m) for m in mappings)
+        # instance attributes: this translator's declarations come from the profile
+        self.report_rules = rules  # type: ignore[misc]
+        for name, value in _declarations(rules, ()).items():
+            setattr(self, name, value)
+        self._by_message = {}
+        for rule in rules:
+            self._by_message.setdefault(rule.message, []).append(rule)
+        self.topic_types = self._topic_specs()  # type: ignore[misc]
+
+    @staticmethod
+    def _rule(m: GenericMapping) -> ReportRule:
+        def fields_of(jaus: Mapping[str, Any], m: GenericMapping = m) -> list[dict[str, Any]]:
+            return [{"name": dds, **generic_value(get_path(jaus, path))}
+                    for dds, path in m.fields.items() if get_path(jaus, path) is not None]
+
+        return ReportRule(
+            m.message, m.topic,
+            {"message": Const(m.message),
+             "fields": Computed(fields_of, "; ".join(f"{d}<-{p}" for d, p in m.fields.items()))},
+            query=m.query, service=m.service, query_fields=m.query_fields, rate=m.rate,
+            doc="profile mapping",
+        )
+
+    def _topic_specs(self) -> tuple[Any, ...]:
+        if not self.mappings:
+            return ()
+        try:  # DDS types exist only where Cyclone DDS is installed
+            from edge_vis.dds.model import GenericReport  # type: ignore[attr-defined]
+            from edge_vis.dds.topics import TopicKind, TopicSpec
+        except ImportError:
+            return ()
+        return tuple(dict.fromkeys(
+            TopicSpec(m.topic, GenericReport, TopicKind.TELEMETRY, owner=self.name)
+            for m in self.mappings if m.topic != "GenericReport"))
+
+    def describe(self) -> list[dict[str, Any]]:
+        rows = super().describe()
+        for row, m in zip(rows, self.mappings, strict=False):
+            row["fields"] = [{"dds": f"fields[name={d}]", "jaus": p, "note": ""}
+                             for d, p in m.fields.items()]
+        return rows

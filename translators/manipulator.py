@@ -1,0 +1,291 @@
+"""The ``manipulator`` translator (AS6057): joints, end effector and pan-tilt. No I/O.
+
+JAUS -> DDS:
+
+* Report{,Commanded}JointPositions / JointVelocity, ReportJointEffort,
+  ReportJointForceTorques -> ``JointState`` (device ``manipulator``; ``quantity`` says
+  which, ``units`` per joint because a joint is revolute (rad) or prismatic (m));
+* ReportPanTilt{,Commanded}Joint{Positions,Velocity}, ReportPanTiltJointEffort ->
+  ``JointState`` (device ``pan_tilt``);
+* Report{,Commanded}EndEffectorPose, ReportToolOffset -> ``EndEffectorPose``;
+  Report{,Commanded}EndEffectorVelocityState -> ``EndEffectorVelocity``;
+  ReportEndEffectorEffort -> ``JointState`` (device ``end_effector``).
+
+DDS -> JAUS (behind control, throttled by the engine):
+
+* ``JointCommand`` -> SetJointPositions / SetJointVelocity / SetJointEffort, or the
+  SetPanTilt* equivalents for device ``pan_tilt`` (values clamped to the JSIDL limits);
+  velocity and effort are motion commands (dead-man stop = zero);
+* ``EndEffectorCommand`` -> SetEndEffectorPose / SetEndEffectorVelocityState /
+  SetEndEffectorEffort by ``mode``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+from translators.generic import CommandRule as Cmd
+from translators.generic import (
+    Computed,
+    Const,
+    Each,
+    From,
+    Put,
+    PutEach,
+    ReportRule,
+    RuleTranslator,
+)
+
+MANIP = "urn:jaus:jss:manipulator:"
+REVOLUTE_LIMIT = 8 * math.pi        # joint position, rad (JSIDL: +-25.13)
+PRISMATIC_LIMIT = 10.0              # joint position, m
+REVOLUTE_RATE = 10 * math.pi        # joint velocity, rad/s
+PRISMATIC_RATE = 5.0                # joint velocity, m/s (JSIDL: +-5 m/s)
+
+
+def _units(list_name: str, variant: str, names: Mapping[str, str]) -> Each:
+    return Each(list_name, From(variant, convert=lambda v: names.get(next(iter(v)), "")
+                                if isinstance(v, Mapping) and v else "", default=""),
+                note=", ".join(f"{k}={u}" for k, u in names.items()))
+
+
+_POS_UNITS = {"radian": "rad", "meter": "m"}
+_VEL_UNITS = {"radian_per_second": "rad/s", "meter_per_second": "m/s"}
+_FT_UNITS = {"newton_meter": "N m", "newton": "N"}
+
+
+def _joints(message: str, quantity: str, list_name: str, variant: str | None,
+            units: Mapping[str, str] | str, query: str, service: str,
+            rate: float = 5.0) -> ReportRule:
+    if variant is None:
+        values = Each(list_name, From(f"{_single(list_name)}"))
+        unit_spec: Any = Each(list_name, Const(units)) if isinstance(units, str) else None
+    else:
+        values = Each(list_name, From(f"{variant}.*"))
+        unit_spec = _units(list_name, variant, units)  # type: ignore[arg-type]
+    return ReportRule(message, "JointState",
+                      {"device": Const("manipulator"), "quantity": Const(quantity),
+                       "values": values, "units": unit_spec},
+                      query=query, service=service, rate=rate)
+
+
+def _single(list_name: str) -> str:
+    return {"joint_effort_list": "joint_effort"}[list_name]
+
+
+def _pan_tilt(message: str, quantity: str, prefix: str, unit: str, query: str,
+              service: str, device: str = "pan_tilt") -> ReportRule:
+    return ReportRule(message, "JointState",
+                      {"device": Const(device), "quantity": Const(quantity),
+                       "values": _pair(f"joint1_{prefix}", f"joint2_{prefix}"),
+                       "units": Const([unit, unit])},
+                      query=query, service=service, rate=5.0)
+
+
+def _pair(a: str, b: str) -> Any:
+    return Computed(lambda f: [float(f.get(a, math.nan)), float(f.get(b, math.nan))],
+                    f"[{a}, {b}]")
+
+
+_POSE = {"x": From("tool_point_coordinate_x", note="m"),
+         "y": From("tool_point_coordinate_y", note="m"),
+         "z": From("tool_point_coordinate_z", note="m"),
+         "qw": From("d_component_of_unit_quaternion_q"),
+         "qx": From("a_component_of_unit_quaternion_q"),
+         "qy": From("b_component_of_unit_quaternion_q"),
+         "qz": From("c_component_of_unit_quaternion_q")}
+_TWIST = {"vx": From("linear_velocity_component_x", note="m/s"),
+          "vy": From("linear_velocity_component_y", note="m/s"),
+          "vz": From("linear_velocity_component_z", note="m/s"),
+          "wx": From("angular_velocity_component_x", note="rad/s"),
+          "wy": From("angular_velocity_component_y", note="rad/s"),
+          "wz": From("angular_velocity_component_z", note="rad/s")}
+
+
+def _position(value: Any, index: int, sample: Mapping[str, Any]) -> dict[str, Any]:
+    units = sample.get("units") or ()
+    if index < len(units) and str(units[index]).strip().lower() in ("m", "meter", "metre"):
+        return {"joint_position": {"meter": _lim(value, PRISMATIC_LIMIT)}}
+    return {"joint_position": {"radian": _lim(value, REVOLUTE_LIMIT)}}
+
+
+def _velocity(value: Any, index: int, sample: Mapping[str, Any]) -> dict[str, Any]:
+    units = sample.get("units") or ()
+    if index < len(units) and str(units[index]).strip().lower() in ("m/s", "meter_per_second"):
+        return {"joint_velocity": {"meter_per_second": _lim(value, PRISMATIC_RATE)}}
+    return {"joint_velocity": {"radian_per_second": _lim(value, REVOLUTE_RATE)}}
+
+
+def _effort(value: Any, index: int, sample: Mapping[str, Any]) -> dict[str, Any]:
+    return {"joint_effort": _lim(value, 100.0)}
+
+
+def _lim(value: Any, limit: float) -> float:
+    number = float(value) if value is not None else 0.0
+    if math.isnan(number):
+        return 0.0
+    return max(-limit, min(limit, number))
+
+
+def _zeros(list_name: str, element: str, alternative: str | None) -> Any:
+    """Dead-man stop of a joint list command: the same joints, all at zero."""
+
+    def stop(fields: Mapping[str, Any]) -> dict[str, Any]:
+        out = []
+        for item in fields.get(list_name, ()):
+            value = item[element]
+            if alternative is not None and isinstance(value, Mapping):
+                out.append({element: dict.fromkeys(value, 0.0)})
+            else:
+                out.append({element: 0.0})
+        return {list_name: out}
+
+    return stop
+
+
+def _pair_one(name: str) -> Any:
+    return Computed(lambda f: [float(f.get(name, math.nan))], f"[{name}]")
+
+
+class ManipulatorTranslator(RuleTranslator):
+    """Manipulator service set <-> JointState, EndEffector* topics and their commands."""
+
+    name = "manipulator"
+    report_rules = (
+        _joints("ReportJointPositions", "position", "joint_position_list", "joint_position",
+                _POS_UNITS, "QueryJointPositions", MANIP + "ManipulatorJointPositionSensor"),
+        _joints("ReportJointVelocity", "velocity", "joint_velocity_list", "joint_velocity",
+                _VEL_UNITS, "QueryJointVelocity", MANIP + "ManipulatorJointVelocitySensor"),
+        _joints("ReportJointEffort", "effort", "joint_effort_list", None, "%",
+                "QueryJointEffort", MANIP + "PrimitiveManipulator"),
+        _joints("ReportJointForceTorques", "force_torque", "actuator_force_torque_list",
+                "joint_force_torque", _FT_UNITS, "QueryJointForceTorques",
+                MANIP + "ManipulatorJointForceTorqueSensor"),
+        _joints("ReportCommandedJointPositions", "commanded_position", "joint_position_list",
+                "joint_position", _POS_UNITS, "QueryCommandedJointPositions",
+                MANIP + "ManipulatorJointPositionDriver", rate=1.0),
+        _joints("ReportCommandedJointVelocity", "commanded_velocity", "joint_velocity_list",
+                "joint_velocity", _VEL_UNITS, "QueryCommandedJointVelocity",
+                MANIP + "ManipulatorJointVelocityDriver", rate=1.0),
+        _pan_tilt("ReportPanTiltJointPositions", "position", "position", "rad",
+                  "QueryPanTiltJointPositions", MANIP + "PanTiltJointPositionSensor"),
+        _pan_tilt("ReportPanTiltJointVelocity", "velocity", "velocity", "rad/s",
+                  "QueryPanTiltJointVelocity", MANIP + "PanTiltJointVelocitySensor"),
+        _pan_tilt("ReportPanTiltJointEffort", "effort", "effort", "%",
+                  "QueryPanTiltJointEffort", MANIP + "PrimitivePanTilt"),
+        _pan_tilt("ReportCommandedPanTiltJointPositions", "commanded_position", "position",
+                  "rad", "QueryCommandedPanTiltJointPositions",
+                  MANIP + "PanTiltJointPositionDriver"),
+        _pan_tilt("ReportCommandedPanTiltJointVelocity", "commanded_velocity", "velocity",
+                  "rad/s", "QueryCommandedPanTiltJointVelocity",
+                  MANIP + "PanTiltJointVelocityDriver"),
+        ReportRule("ReportEndEffectorEffort", "JointState",
+                   {"device": Const("end_effector"), "quantity": Const("effort"),
+                    "values": _pair_one("end_effector_effort"), "units": Const(["%"])},
+                   query="QueryEndEffectorEffort", service=MANIP + "PrimitiveEndEffector"),
+        ReportRule("ReportEndEffectorPose", "EndEffectorPose", {"kind": Const("actual"), **_POSE},
+                   query="QueryEndEffectorPose",
+                   service=MANIP + "ManipulatorEndEffectorPoseSensor", rate=5.0),
+        ReportRule("ReportCommandedEndEffectorPose", "EndEffectorPose",
+                   {"kind": Const("commanded"), **_POSE},
+                   query="QueryCommandedEndEffectorPose",
+                   service=MANIP + "ManipulatorEndEffectorPoseDriver"),
+        ReportRule("ReportToolOffset", "EndEffectorPose",
+                   {"kind": Const("tool_offset"), "x": _POSE["x"], "y": _POSE["y"],
+                    "z": _POSE["z"]},
+                   query="QueryToolOffset", service=MANIP + "ManipulatorToolOffsetService",
+                   rate=0.2, on_change=True),
+        ReportRule("ReportEndEffectorVelocityState", "EndEffectorVelocity",
+                   {"kind": Const("actual"), **_TWIST}, query="QueryEndEffectorVelocityState",
+                   service=MANIP + "ManipulatorEndEffectorVelocityStateSensor", rate=5.0),
+        ReportRule("ReportCommandedEndEffectorVelocityState", "EndEffectorVelocity",
+                   {"kind": Const("commanded"), **_TWIST},
+                   query="QueryCommandedEndEffectorVelocityState",
+                   service=MANIP + "ManipulatorEndEffectorVelocityStateDriver"),
+    )
+    command_rules = (
+        Cmd("JointCommand", "SetJointPositions", MANIP + "ManipulatorJointPositionDriver",
+            "joint_position", {"joint_position_list": PutEach(
+                "values", _position, "radian, or meter where units[i] is m; clamped")},
+            when={"device": ("manipulator", ""), "quantity": "position"}),
+        Cmd("JointCommand", "SetJointVelocity", MANIP + "ManipulatorJointVelocityDriver",
+            "joint_velocity", {"joint_velocity_list": PutEach(
+                "values", _velocity, "rad/s, or m/s where units[i] is m/s; clamped")},
+            when={"device": ("manipulator", ""), "quantity": "velocity"},
+            stop=_zeros("joint_velocity_list", "joint_velocity", "variant"),
+            doc="motion: dead-man stop"),
+        Cmd("JointCommand", "SetJointEffort", MANIP + "PrimitiveManipulator", "joint_effort",
+            {"joint_effort_list": PutEach("values", _effort, "percent, clamped to +-100")},
+            when={"device": ("manipulator", ""), "quantity": "effort"},
+            stop=_zeros("joint_effort_list", "joint_effort", None), doc="motion: dead-man stop"),
+        Cmd("JointCommand", "SetPanTiltJointPositions", MANIP + "PanTiltJointPositionDriver",
+            "pan_tilt_position",
+            {"joint1_position": Put("values[0]", -REVOLUTE_LIMIT, REVOLUTE_LIMIT),
+             "joint2_position": Put("values[1]", -REVOLUTE_LIMIT, REVOLUTE_LIMIT)},
+            when={"device": "pan_tilt", "quantity": "position"}),
+        Cmd("JointCommand", "SetPanTiltJointVelocity", MANIP + "PanTiltJointVelocityDriver",
+            "pan_tilt_velocity",
+            {"joint1_velocity": Put("values[0]", -REVOLUTE_RATE, REVOLUTE_RATE),
+             "joint2_velocity": Put("values[1]", -REVOLUTE_RATE, REVOLUTE_RATE)},
+            when={"device": "pan_tilt", "quantity": "velocity"},
+            stop={"joint1_velocity": 0.0, "joint2_velocity": 0.0}, doc="motion: dead-man stop"),
+        Cmd("JointCommand", "SetPanTiltJointEffort", MANIP + "PrimitivePanTilt",
+            "pan_tilt_effort",
+            {"joint1_effort": Put("values[0]", -100.0, 100.0),
+             "joint2_effort": Put("values[1]", -100.0, 100.0)},
+            when={"device": "pan_tilt", "quantity": "effort"},
+            stop={"joint1_effort": 0.0, "joint2_effort": 0.0}, doc="motion: dead-man stop"),
+        Cmd("EndEffectorCommand", "SetEndEffectorPose", MANIP + "ManipulatorEndEffectorPoseDriver",
+            "end_effector_pose",
+            {"tool_point_coordinate_x": Put("x", -30.0, 30.0),
+             "tool_point_coordinate_y": Put("y", -30.0, 30.0),
+             "tool_point_coordinate_z": Put("z", -30.0, 30.0),
+             "d_component_of_unit_quaternion_q": Put("qw", -1.0, 1.0, default=1.0),
+             "a_component_of_unit_quaternion_q": Put("qx", -1.0, 1.0),
+             "b_component_of_unit_quaternion_q": Put("qy", -1.0, 1.0),
+             "c_component_of_unit_quaternion_q": Put("qz", -1.0, 1.0)},
+            when={"mode": "pose"}),
+        Cmd("EndEffectorCommand", "SetEndEffectorVelocityState",
+            MANIP + "ManipulatorEndEffectorVelocityStateDriver", "end_effector_velocity",
+            {"linear_velocity_component_x": Put("vx", -10.0, 10.0),
+             "linear_velocity_component_y": Put("vy", -10.0, 10.0),
+             "linear_velocity_component_z": Put("vz", -10.0, 10.0),
+             "angular_velocity_component_x": Put("wx", -20 * math.pi, 20 * math.pi),
+             "angular_velocity_component_y": Put("wy", -20 * math.pi, 20 * math.pi),
+             "angular_velocity_component_z": Put("wz", -20 * math.pi, 20 * math.pi)},
+            when={"mode": "velocity"},
+            stop=dict.fromkeys(("linear_velocity_component_x", "linear_velocity_component_y",
+                                "linear_velocity_component_z", "angular_velocity_component_x",
+                                "angular_velocity_component_y", "angular_velocity_component_z"),
+                               0.0), doc="motion: dead-man stop"),
+        Cmd("EndEffectorCommand", "SetEndEffectorEffort", MANIP + "PrimitiveEndEffector",
+            "end_effector_effort", {"end_effector_effort": Put("effort", -100.0, 100.0)},
+            when={"mode": "effort"}),
+    )
+    not_translated = (
+        ("ReportManipulatorSpecifications", "kinematic description; no topic in the model"),
+        ("ReportPanTiltSpecifications", "pan-tilt limits; no topic in the model"),
+        ("ReportJointMotionProfile", "motion profiles are not exposed over DDS"),
+        ("ReportPanTiltMotionProfile", "motion profiles are not exposed over DDS"),
+        ("ReportEndEffectorSpecification", "end-effector parent link; no topic in the model"),
+        ("ReportCommandedActuatorForceTorques", "actuator force/torque commands not bridged"),
+        ("SetActuatorForceTorques", "actuator force/torque commands not bridged"),
+        ("SetToolOffset", "tool offset is set on the vehicle, not from DDS"),
+        ("SetJointMotionProfile", "motion profiles are not exposed over DDS"),
+        ("ExecuteList", "manipulator list drivers: not bridged (the name collides with "
+                        "mobility's ExecuteList when encoding by name)"),
+    )
+
+    def command(self, rule, sample):  # type: ignore[no-untyped-def]
+        """Pan-tilt rules read ``values[0]``/``values[1]``: expose them as members first."""
+        values = list(sample.get("values") or ())
+        if any(isinstance(s, Put) and s.dds.startswith("values[") for s in rule.fields.values()):
+            if len(values) < 2:
+                return None
+            sample = {**sample, "values[0]": values[0], "values[1]": values[1]}
+        elif isinstance(sample.get("values"), list | tuple) and not values:
+            return None
+        return super().command(rule, sample)
+

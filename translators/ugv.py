@@ -1,0 +1,229 @@
+"""The ``ugv`` translator (AS6091 unmanned ground vehicle services). No I/O.
+
+JAUS -> DDS:
+
+* ReportOdometry -> ``Odometry`` (metres, per odometer);
+* ReportPlatformSpecifications -> ``PlatformSpecifications``;
+* ReportPowerPlantStatus -> one ``PowerPlantStatus`` per engine/battery/fuel cell;
+* ReportParkingBrake, ReportIlluminationState, ReportTransmissionState,
+  ReportTransferCaseState, ReportAnnunciatorState -> ``DeviceStatus`` (device
+  ``parking_brake``, ``illumination``, ``transmission``, ``transfer_case``,
+  ``annunciator``).
+
+DDS -> JAUS (behind control, throttled): ``DeviceCommand`` by device -> SetParkingBrake,
+SetIlluminationState, SetTransmissionState, SetTransferCaseState, SetAnnunciatorState,
+ResetOdometry. The UGV messages this translator leaves alone are listed in
+:data:`NOT_TRANSLATED` (``edge-vis mappings`` prints them).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from translators.generic import (
+    NAN,
+    Computed,
+    Const,
+    From,
+    Put,
+    ReportRule,
+    RuleTranslator,
+    code_of,
+    flags,
+    label,
+)
+from translators.generic import CommandRule as Cmd
+
+UGV = "urn:jaus:jss:ugv:"
+
+GEARS = {0: "DEFAULT", 1: "PARK", 2: "NEUTRAL", 3: "REVERSE", 4: "DRIVE", 5: "OVERDRIVE",
+         6: "L1", 7: "L2", 8: "L3", 9: "L4", 10: "L5", 11: "L6"}
+TRANSFER_CASE = {0: "DEFAULT", 1: "FWD", 2: "AUTO_4WD", 3: "MANUAL_LOW_4WD",
+                 4: "MANUAL_HIGH_4WD", 5: "LOW_AWD", 6: "HIGH_AWD"}
+ODOMETERS = {1: "PLATFORM", 2: "TRIP_A", 3: "TRIP_B", 4: "TRIP_C"}
+#: lights of SetIlluminationState; variable lights take a level 0..15 ("variable_light1=7")
+LIGHTS = ("headlights", "left_turn_signal", "right_turn_signal", "running_lights",
+          "brake_lights", "backup_lights", "visible_light_source", "ir_light_source",
+          "variable_light1", "variable_light2", "variable_light3", "variable_light4",
+          "high_beams", "parking_lights", "fog_lights", "hazard_lights")
+#: sounders of SetAnnunciatorState, each with a level 0..15 ("horn=15")
+SOUNDERS = ("horn", "siren", "backup", "variable1", "variable2")
+
+
+def bits_from(names: tuple[str, ...], full: int) -> Any:
+    """Converter: ``"headlights, variable_light1=7"`` -> a bit-field dict; a bare name of a
+    multi-bit member means its full level ``full``; unknown names are a ValueError."""
+
+    def convert(text: Any) -> dict[str, int]:
+        out = dict.fromkeys(names, 0)
+        for part in str(text or "").replace(";", ",").split(","):
+            part = part.strip().lower()
+            if not part:
+                continue
+            name, _, level = part.partition("=")
+            name = name.strip()
+            if name not in out:
+                raise ValueError(f"unknown {name!r} (known: {', '.join(names)})")
+            out[name] = int(level) if level else (1 if name in _ONE_BIT else full)
+        return out
+
+    return convert
+
+
+_ONE_BIT = frozenset(LIGHTS) - {"variable_light1", "variable_light2", "variable_light3",
+                                "variable_light4"}
+
+
+def _brake_state(f: Mapping[str, Any]) -> str:
+    actual = f.get("actual_parking_brake")
+    return "" if actual is None else ("SET" if float(actual) > 0 else "RELEASED")
+
+
+def _plant(*names: str) -> Computed:
+    """The first of ``names`` present in the plant's status variant (NaN if none)."""
+
+    def pick(plant: Mapping[str, Any]) -> float:
+        status = plant.get("power_plant_status_var") or {}
+        values = next(iter(status.values()), {}) if status else {}
+        for name in names:
+            if name in values:
+                return float(values[name])
+        return NAN
+
+    return Computed(pick, " | ".join(f"power_plant_status_var.*.{n}" for n in names))
+
+
+def _plant_kind(plant: Mapping[str, Any]) -> str:
+    status = plant.get("power_plant_status_var") or {}
+    return next(iter(status), "").removesuffix("_status")
+
+
+def _steering(f: Mapping[str, Any]) -> str:
+    return next(iter(f.get("platform_specifics") or {}), "")
+
+
+def _device(message: str, device: str, fields: Mapping[str, Any], query: str,
+            service: str) -> ReportRule:
+    return ReportRule(message, "DeviceStatus", {"device": Const(device), **fields},
+                      query=query, service=UGV + service, rate=1.0, on_change=True)
+
+
+NOT_TRANSLATED: tuple[tuple[str, str], ...] = (
+    ("ReportSkidSteerEffort", "drive efforts: commanded through WrenchEffortCommand"),
+    ("SetSkidSteerEffort", "drive efforts: commanded through WrenchEffortCommand"),
+    ("ReportAckermannConfiguration", "steering/throttle/brake efforts: no topic in the model"),
+    ("SetAckermannConfiguration", "steering/throttle/brake efforts: no topic in the model"),
+    ("ReportStabilizerEffort", "stabilizers (flippers): no topic in the model"),
+    ("ReportStabilizerPosition", "stabilizers (flippers): no topic in the model"),
+    ("ReportStabilizerCapabilities", "stabilizers (flippers): no topic in the model"),
+    ("SetStabilizerEffort", "stabilizers (flippers): no topic in the model"),
+    ("SetStabilizerPosition", "stabilizers (flippers): no topic in the model"),
+    ("ReportPowerPlantConfiguration", "engine on/off configuration: not exposed"),
+    ("ReportPowerPlantCapabilities", "power plant limits: not exposed"),
+    ("SetPowerPlantConfiguration", "starting/stopping engines is not bridged"),
+    ("ReportTransmissionCapabilities", "supported gears: not exposed"),
+    ("ReportIlluminationConfiguration", "installed lights: not exposed"),
+    ("ReportAnnunciatorConfiguration", "installed sounders: not exposed"),
+)
+
+
+class UgvTranslator(RuleTranslator):
+    """UGV service set <-> odometry, platform, power plant and device topics."""
+
+    name = "ugv"
+    report_rules = (
+        ReportRule("ReportOdometry", "Odometry",
+                   {"odometer": From("odom", convert=label(ODOMETERS)),
+                    "distance": From("odometry", convert=float, note="m")},
+                   query="QueryOdometry", service=UGV + "OdometryService",
+                   query_fields={"odom": 1}, rate=1.0),
+        ReportRule("ReportPlatformSpecifications", "PlatformSpecifications", {
+            "platform_name": From("platform_spec.mobility_platform_name", default=""),
+            "steering": Computed(_steering, "platform_specifics alternative"),
+            "max_forward_speed": From("platform_inertial.maximum_forward_speed", note="m/s"),
+            "max_reverse_speed": From("platform_inertial.maximum_reverse_speed", note="m/s"),
+            "max_rotational_speed": From("platform_inertial.maximum_rotational_speed",
+                                         note="rad/s"),
+            "max_forward_acceleration": From("platform_inertial.maximum_forward_acceleration",
+                                             note="m/s^2"),
+            "max_forward_deceleration": From("platform_inertial.maximum_forward_deceleration",
+                                             note="m/s^2"),
+            "front": From("platform_spec.front", note="m"),
+            "back": From("platform_spec.back", note="m"),
+            "left": From("platform_spec.left", note="m"),
+            "right": From("platform_spec.right", note="m"),
+            "top": From("platform_spec.top", note="m"),
+            "bottom": From("platform_spec.bottom", note="m"),
+            "wheel_base": From("platform_spec.wheel_base", note="m"),
+            "track_width": Computed(
+                lambda f: float(next(
+                    (v[k] for v in (f.get("platform_specifics") or {}).values()
+                     for k in ("track_separation", "wheel_separation") if k in v), NAN)),
+                "platform_specifics.*.track_separation | wheel_separation"),
+            "min_turn_radius": From("platform_specifics.ackermann.min_turn_radius", note="m"),
+            "weight": From("platform_spec.vehicle_weight", note="kg"),
+        }, query="QueryPlatformSpecifications", service=UGV + "PlatformSpecifications",
+            rate=0.1, on_change=True),
+        ReportRule("ReportPowerPlantStatus", "PowerPlantStatus", {
+            "plant_id": From("power_plant_desc_rec.power_plant_id"),
+            "description": From("power_plant_desc_rec.description", default=""),
+            "kind": Computed(_plant_kind, "power_plant_status_var alternative"),
+            "remaining_percent": _plant("percent_charge_remaining", "percent_remaining_fuel"),
+            "voltage": _plant("voltage"),
+            "current": _plant("current_draw"),
+            "temperature": _plant("battery_temp", "engine_temp", "fluid_temp"),
+            "hours": _plant("battery_hours", "engine_hours", "total_hours"),
+        }, query="QueryPowerPlantStatus", service=UGV + "PowerPlantManager",
+            query_fields={"id_list": []}, rate=0.5, split="power_plant_status_list",
+            doc="one sample per power plant; an empty id list asks for all"),
+        _device("ReportParkingBrake", "parking_brake",
+                {"state": Computed(_brake_state, "actual_parking_brake > 0"),
+                 "value": From("actual_parking_brake", note="percent"),
+                 "commanded_value": From("commanded_parking_brake", note="percent")},
+                "QueryParkingBrake", "ParkingBrakeDriver"),
+        _device("ReportIlluminationState", "illumination",
+                {"state": From("illumination", convert=flags, default="",
+                               note="lights on, comma separated")},
+                "QueryIlluminationState", "IlluminationService"),
+        _device("ReportTransmissionState", "transmission",
+                {"state": From("actual_transmission_state", convert=label(GEARS), default=""),
+                 "commanded_state": From("requested_transmission_state",
+                                         convert=label(GEARS), default="")},
+                "QueryTransmissionState", "DriveTrainDriver"),
+        _device("ReportTransferCaseState", "transfer_case",
+                {"state": From("transfer_case_state", convert=label(TRANSFER_CASE),
+                               default="")},
+                "QueryTransferCaseState", "DriveTrainDriver"),
+        _device("ReportAnnunciatorState", "annunciator",
+                {"state": From("annunciator", default="",
+                               convert=lambda b: flags({k: v for k, v in b.items()
+                                                        if k != "reserved"}),
+                               note="sounders on, comma separated")},
+                "QueryAnnunciatorState", "AnnunciatorService"),
+    )
+    command_rules = (
+        Cmd("DeviceCommand", "SetParkingBrake", UGV + "ParkingBrakeDriver", "parking_brake",
+            {"parking_brake": Put("value", 0.0, 100.0, note="percent")},
+            when={"device": "parking_brake"}),
+        Cmd("DeviceCommand", "SetIlluminationState", UGV + "IlluminationService",
+            "illumination",
+            {"illumination": Put("state", convert=bits_from(LIGHTS, 15), default="",
+                                 note="comma-separated lights to switch on")},
+            when={"device": "illumination"}),
+        Cmd("DeviceCommand", "SetTransmissionState", UGV + "DriveTrainDriver", "transmission",
+            {"transmission_state": Put("state", convert=code_of(GEARS), note="gear name")},
+            when={"device": "transmission"}),
+        Cmd("DeviceCommand", "SetTransferCaseState", UGV + "DriveTrainDriver", "transfer_case",
+            {"transfer_case_state": Put("state", convert=code_of(TRANSFER_CASE))},
+            when={"device": "transfer_case"}),
+        Cmd("DeviceCommand", "SetAnnunciatorState", UGV + "AnnunciatorService", "annunciator",
+            {"annunciator": Put("state", convert=bits_from(SOUNDERS, 15), default="",
+                                note="comma-separated sounders, optional =level")},
+            when={"device": "annunciator"}),
+        Cmd("DeviceCommand", "ResetOdometry", UGV + "OdometryService", "odometry",
+            {"odometry_type": Put("state", convert=code_of(
+                {k: v for k, v in ODOMETERS.items() if k != 1}), note="TRIP_A|B|C")},
+            when={"device": "odometer"}),
+    )
+    not_translated = NOT_TRANSLATED
