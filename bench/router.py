@@ -34,9 +34,6 @@ import struct
 import sys
 import time
 import tty
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.serial import SerialDeframer, SerialFrame, frame

@@ -9,7 +9,9 @@ URL::
 * ``multicast``: group that carries JAUS broadcasts; ``off`` disables it. Default
   ``239.255.0.1`` when bound to all interfaces (as the JAUS Toolset), else ``off``
   (a socket bound to one address cannot receive multicast).
-* ``ttl`` (default 16) and ``loop`` (default 0) are the multicast TTL and loopback.
+* ``ttl`` (default 16) and ``loop`` (default 0) are the multicast TTL and loopback;
+  ``interface`` (an IPv4 address of this host) picks the interface that joins the group
+  and sends to it, for a relay with several networks (default: the kernel's choice).
 * ``peers``: configured peers (``host[:port]``, comma separated) that always receive
   broadcasts; unicast goes to wherever the router says a component lives.
 * ``broadcast``: where a broadcast goes, a comma list of ``multicast``, ``peers``,
@@ -57,7 +59,7 @@ class UdpLink(Link):
 
     scheme: ClassVar[str] = "udp"
     options: ClassVar[frozenset[str]] = frozenset(
-        {"multicast", "ttl", "loop", "peers", "broadcast", "pack"}
+        {"multicast", "ttl", "loop", "interface", "peers", "broadcast", "pack"}
     )
     overhead: ClassVar[int] = 29  # IPv4 20 + UDP 8 + JUDP version byte 1
 
@@ -81,6 +83,10 @@ class UdpLink(Link):
         self.multicast = group
         self.ttl = self.int_option("ttl", 16, low=0, high=255)
         self.multicast_loop = self.bool_option("loop", False)
+        self.interface = opts.get("interface", "") or "0.0.0.0"
+        if not _is_ip(self.interface):
+            raise ConfigError([("", "url.interface", f"{self.url}: interface "
+                                f"{self.interface!r} is not an IPv4 address")])
         self.peers: list[tuple[str, int]] = parse_peers(opts.get("peers", ""), JUDP_PORT)
         default = "multicast,peers" if group else "peers,learned"
         self.broadcast_to = [b.strip() for b in opts.get("broadcast", default).split(",")
@@ -116,8 +122,11 @@ class UdpLink(Link):
                 sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
             sock.bind((self.bind_host, self.bind_port))
             if self.multicast:
-                membership = socket.inet_aton(self.multicast) + socket.inet_aton("0.0.0.0")
+                interface = socket.inet_aton(self.interface)
+                membership = socket.inet_aton(self.multicast) + interface
                 sock.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP, membership)
+                if self.interface != "0.0.0.0":
+                    sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_IF, interface)
                 sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, self.ttl)
                 sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_LOOP,
                                 int(self.multicast_loop))

@@ -174,12 +174,13 @@ class EnvironmentTranslator(RuleTranslator):
                                     "len(image_frame.data)"),
              "sha256": Computed(_sha, "sha256(image_frame.data)"),
              "format": Computed(_extension, "image_frame.format"),
-             "capture_time_ms": Const(0, "relay reception time (JAUS TimeStamp has no date)")},
+             "capture_time_ms": Computed(lambda e: 0, "relay reception time (the JAUS "
+                                                      "TimeStamp has no date)")},
             query="QueryStillImageData", service=STILL_IMAGE,
             query_fields={"query_still_image_data_list": [
                 {"sensor_id": i, "report_coordinate_system": 0, "query_presence_vector": 0}
                 for i in SENSOR_IDS]},
-            rate=0.05, split="still_image_data_list", require="image_frame",
+            rate=0.05, split="still_image_data_list", require="image_frame", stamp=False,
             doc=f"plus ImageData chunks of <= {CHUNK_BYTES} bytes",
         ),
     )
@@ -224,9 +225,7 @@ class EnvironmentTranslator(RuleTranslator):
              "chunk_index": Computed(lambda e: 0, "0 .. chunk_count-1"),
              "chunk_count": Computed(lambda e: 0, f"ceil(size / {CHUNK_BYTES})"),
              "data": From("image_frame.data", note=f"<= {CHUNK_BYTES} bytes per chunk")})
-        extra = describe_rules(self.name, (rule,), ())
-        extra[0]["query"] = ""
-        return rows + extra
+        return rows + describe_rules(self.name, (rule,), ())
 
 
 def image_chunks(vehicle_id: str, image_id: str, data: bytes,

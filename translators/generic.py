@@ -20,7 +20,8 @@ JAUS -> DDS, a :class:`ReportRule`: ``fields`` maps each DDS member to a value s
 ``ReportRangeSensorData``); ``require`` skips elements without that path (an error
 alternative of a variant). ``merge`` keeps the latest value of every member per instance,
 so a state topic fed by several reports (``PlatformStatus`` from ``ReportPlatformState``
-and ``ReportPlatformMode``) never clears what another report said.
+and ``ReportPlatformMode``) never clears what another report said, and a member a report
+did not carry (NaN) keeps its earlier value.
 
 DDS -> JAUS, a :class:`CommandRule`: ``fields`` maps JAUS field paths to :class:`Put`
 (one DDS member, clamped to the JAUS field's limits) or :class:`PutEach` (a JAUS list from
@@ -374,7 +375,9 @@ class RuleTranslator(Translator):
             if rule.merge:
                 key = (rule.topic, tuple(sample.get(k) for k in ("vehicle_id", *rule.keys)))
                 merged = self._latest.setdefault(key, {})
-                merged.update(sample)
+                # a member this report did not carry (NaN) keeps what an earlier one said
+                merged.update({k: v for k, v in sample.items()
+                               if k not in merged or _finite(v)})
                 sample = dict(merged)
             out.append(sample)
         return out

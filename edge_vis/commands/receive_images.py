@@ -56,17 +56,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="bulk budget in bit/s for forwarding (suffix k/M/G)")
     parser.add_argument("--domain", type=int, metavar="N",
                         help="publish ImageProduct/ImageData/TransferStatus on DDS domain N")
+    parser.add_argument("--partition", action="append", default=[], metavar="NAME",
+                        help="with --domain, DDS partition to publish in (repeatable)")
     parser.add_argument("--no-image-data", action="store_true",
                         help="with --domain, publish metadata only, not the image bytes")
 
 
-def _bridge(domain: int) -> Any:
+def _bridge(domain: int, partitions: list[str]) -> Any:
     """A started DDS bridge on ``domain``; its ``publish(topic, dict)`` is what we need."""
     try:
         from edge_vis.dds import bridge as dds_bridge
     except ImportError as exc:
         raise ConfigError(f"--domain needs the DDS bridge (cyclonedds): {exc}") from exc
-    bridge = dds_bridge.DdsBridge(domain)
+    bridge = dds_bridge.DdsBridge(domain, partitions)
     bridge.open_writers(["ImageProduct", "ImageData", "TransferStatus"])
     return bridge
 
@@ -78,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
         forward = [udt.parse_address(f) for f in args.forward]
     except ValueError as exc:
         raise ConfigError(f"address: {exc}") from None
-    bridge = _bridge(args.domain) if args.domain is not None else None
+    bridge = _bridge(args.domain, args.partition) if args.domain is not None else None
     stop = threading.Event()
 
     def _signal(signum: int, _frame: object) -> None:

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import logging
 from collections import Counter
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -150,6 +150,12 @@ class Engine:
         self._shutdown_deadline: float | None = None
         self._done = False
         self._controlled_services = self.manager.controlled_services()
+        # The timer pass visits every vehicle; an input only changes the vehicles it
+        # touches, so between deadlines only those are visited (see _run).
+        self._touched: dict[int, Vehicle] = {}
+        self._vehicle_due: float | None = None
+        self._due_valid = False
+        self._vehicle_count = 0
 
     # == public API =======================================================================
 
@@ -215,8 +221,18 @@ class Engine:
         times: list[float | None] = [self._shutdown_deadline]
         if not self._shutting_down:
             times.append(self._next_discovery)
+        if not self._due_valid:
+            self._vehicle_due = self._earliest(self.vehicles.values())
+            self._due_valid = True
+        times.append(self._vehicle_due)
+        real = [t for t in times if t is not None]
+        return min(real) if real else None
+
+    def _earliest(self, vehicles: Iterable[Vehicle]) -> float | None:
+        """The earliest deadline of any of ``vehicles``."""
+        times: list[float | None] = []
         silence = self.profile.discovery.silence_timeout
-        for v in self.vehicles.values():
+        for v in vehicles:
             if not self._shutting_down:
                 times.append(v.next_liveness)
                 times.append(v.next_services_query)
@@ -396,6 +412,7 @@ class Engine:
     # == liveness ===========================================================================
 
     def _seen(self, vehicle: Vehicle, now: float) -> None:
+        self._touch(vehicle)
         vehicle.last_seen = now
         if vehicle.online:
             return
@@ -627,6 +644,7 @@ class Engine:
         if vehicle is None:
             self.counters["control_requests_unknown_vehicle"] += 1
             return
+        self._touch(vehicle)
         operator = str(sample.get("operator_id", ""))
         raw = sample.get("action", "request")
         # the enum's name ("REQUEST"/"RELEASE"), or its value (0/1)
@@ -655,6 +673,7 @@ class Engine:
         if vehicle is None:
             self.counters["commands_unknown_vehicle"] += 1
             return
+        self._touch(vehicle)
         arb = vehicle.arbitration
         reason = ""
         if not arb.allows(command.operator_id):
@@ -710,6 +729,13 @@ class Engine:
     # == the timer pass ===================================================================
 
     def _run(self, now: float) -> None:
+        """The pass that sends whatever is due.
+
+        Every vehicle is visited when one of their deadlines has come (or the set of
+        vehicles changed, or the engine is shutting down); otherwise only the vehicles the
+        current input touched are, which keeps the cost of a report independent of the
+        size of the fleet. The cached earliest deadline is kept exact or early, never late.
+        """
         if self._done:
             return
         disc = self.profile.discovery
@@ -718,26 +744,52 @@ class Engine:
         ):
             self._next_discovery = now + disc.period
             self._send(BROADCAST, "QueryIdentification", {"query_type": 2})
-        for vehicle in list(self.vehicles.values()):
-            if not self._shutting_down:
-                if (vehicle.online and vehicle.last_seen is not None
-                        and now > vehicle.last_seen + disc.silence_timeout):
-                    self._lose(vehicle, now)
-                if vehicle.next_services_query is not None and now >= vehicle.next_services_query:
-                    self._query_services(vehicle, now)
-                if vehicle.next_liveness is not None and now >= vehicle.next_liveness:
-                    self._liveness(vehicle, now)
-            before = self._jaus_control(vehicle)
-            for address, ctl in vehicle.controls.items():
-                self._send_outgoing(address, ctl.poll(now))
-            if self._jaus_control(vehicle) != before:
-                self._changed(vehicle, "control", now)
-            for sub in vehicle.subscriptions.values():
-                self._send_requests(sub.provider, sub.poll(now))
-            if not self._shutting_down:
-                self._pump_commands(vehicle, now)
+        full = (
+            self._shutting_down
+            or not self._due_valid
+            or len(self.vehicles) != self._vehicle_count
+            or (self._vehicle_due is not None and now >= self._vehicle_due)
+        )
+        visit = list(self.vehicles.values()) if full else list(self._touched.values())
+        self._touched = {}
+        for vehicle in visit:
+            self._visit(vehicle, now)
+        if full:
+            self._vehicle_count = len(self.vehicles)
+            self._vehicle_due = self._earliest(self.vehicles.values())
+            self._due_valid = True
+        elif visit:
+            due = self._earliest(visit)
+            if due is not None and (self._vehicle_due is None or due < self._vehicle_due):
+                self._vehicle_due = due
+        if self._touched:  # a visit touched another vehicle: settle it at the next pass
+            self._due_valid = False
         if self._shutting_down:
             self._check_shutdown(now)
+
+    def _visit(self, vehicle: Vehicle, now: float) -> None:
+        disc = self.profile.discovery
+        if not self._shutting_down:
+            if (vehicle.online and vehicle.last_seen is not None
+                    and now > vehicle.last_seen + disc.silence_timeout):
+                self._lose(vehicle, now)
+            if vehicle.next_services_query is not None and now >= vehicle.next_services_query:
+                self._query_services(vehicle, now)
+            if vehicle.next_liveness is not None and now >= vehicle.next_liveness:
+                self._liveness(vehicle, now)
+        before = self._jaus_control(vehicle)
+        for address, ctl in vehicle.controls.items():
+            self._send_outgoing(address, ctl.poll(now))
+        if self._jaus_control(vehicle) != before:
+            self._changed(vehicle, "control", now)
+        for sub in vehicle.subscriptions.values():
+            self._send_requests(sub.provider, sub.poll(now))
+        if not self._shutting_down:
+            self._pump_commands(vehicle, now)
+
+    def _touch(self, vehicle: Vehicle) -> None:
+        """``vehicle``'s state changed: the next pass must visit it."""
+        self._touched[id(vehicle)] = vehicle
 
     def _check_shutdown(self, now: float) -> None:
         pending = sum(
@@ -795,6 +847,7 @@ class Engine:
                 raise TypeError(f"translators may not return {type(action).__name__}")
 
     def _changed(self, vehicle: Vehicle, change: str, now: float) -> None:
+        self._touch(vehicle)
         self._apply(self.manager.on_vehicle(change, self._context(vehicle, now)), now)
 
     def _jaus_control(self, vehicle: Vehicle) -> str:

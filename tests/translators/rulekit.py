@@ -21,16 +21,16 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # .../tests, for strategies
 
-from strategies import random_value  # noqa: E402
+from strategies import random_value
 
-from edge_vis.catalogue import default_catalogue  # noqa: E402
-from edge_vis.codec.types import Enum, FieldType, List, Record, Variant  # noqa: E402
-from edge_vis.dds import model  # noqa: E402
-from edge_vis.dds.convert import converter_for  # noqa: E402
-from edge_vis.engine.actions import Command, Publish  # noqa: E402
-from edge_vis.jaus.address import JausAddress  # noqa: E402
-from edge_vis.translator import TranslatorContext, VehicleView  # noqa: E402
-from translators.generic import (  # noqa: E402
+from edge_vis.catalogue import default_catalogue
+from edge_vis.codec.types import Enum, FieldType, List, Record, Variant
+from edge_vis.dds import model
+from edge_vis.dds.convert import converter_for
+from edge_vis.engine.actions import Command, Publish
+from edge_vis.jaus.address import JausAddress
+from edge_vis.translator import TranslatorContext, VehicleView
+from translators.generic import (
     CommandRule,
     Const,
     Each,

@@ -1,0 +1,112 @@
+"""The ugv translator: odometry, platform, power plants and devices; device commands."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+from rulekit import CAT, CTX, check_command_rule, check_report_rule, command_sample
+
+from edge_vis.commands.mappings import collect
+from translators.generic import CommandRule
+from translators.ugv import NOT_TRANSLATED, UgvTranslator
+
+TR = UgvTranslator
+REPORTS = TR.report_rules
+COMMANDS = TR.command_rules
+
+
+@pytest.mark.parametrize("rule", REPORTS, ids=[r.message for r in REPORTS])
+def test_every_declared_report_translates(rule) -> None:  # type: ignore[no-untyped-def]
+    assert check_report_rule(TR(), rule) > 0
+
+
+COMMAND_CASES: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
+    "SetParkingBrake": ({"value": 130.0}, {"parking_brake": 100.0}),
+    "SetIlluminationState": (
+        {"state": "Headlights, brake_lights, variable_light1=7, variable_light2"},
+        {"illumination": {"headlights": 1, "brake_lights": 1, "variable_light1": 7,
+                          "variable_light2": 15}}),
+    "SetTransmissionState": ({"state": "drive"}, {"transmission_state": 4}),
+    "SetTransferCaseState": ({"state": "AUTO_4WD"}, {"transfer_case_state": 2}),
+    "SetAnnunciatorState": ({"state": "horn=3"}, {"annunciator": {"horn": 3}}),
+    "ResetOdometry": ({"state": "trip_b"}, {"odometry_type": 3}),
+}
+
+
+def test_every_command_rule_has_a_case() -> None:
+    assert {r.message for r in COMMANDS} == set(COMMAND_CASES)
+
+
+@pytest.mark.parametrize("rule", COMMANDS, ids=[r.message for r in COMMANDS])
+def test_every_declared_command(rule: CommandRule) -> None:
+    values, expected = COMMAND_CASES[rule.message]
+    command = check_command_rule(TR(), rule, command_sample(rule, **values))
+    for key, value in expected.items():
+        got = command.fields[key]
+        if isinstance(value, dict):  # bit fields: named members set, every other one 0
+            assert {k: v for k, v in got.items() if v} == value
+        else:
+            assert got == value
+
+
+@pytest.mark.parametrize(("device", "state"), [("transmission", "WARP"),
+                                               ("illumination", "laser"),
+                                               ("odometer", "PLATFORM"),
+                                               ("transmission", "")])
+def test_bad_device_states_are_refused_not_guessed(device: str, state: str) -> None:
+    sample = {"vehicle_id": "veh1", "operator_id": "op1", "device": device, "state": state}
+    assert TR().on_sample("DeviceCommand", sample, CTX) == []
+
+
+def test_unknown_device_is_ignored() -> None:
+    sample = {"vehicle_id": "veh1", "operator_id": "op1", "device": "flux_capacitor"}
+    assert TR().on_sample("DeviceCommand", sample, CTX) == []
+
+
+def decoded(name: str, fields: dict[str, Any]) -> dict[str, Any]:
+    return CAT.decode(CAT.encode(name, fields)).fields or {}
+
+
+def test_parking_brake_and_transmission_status() -> None:
+    tr = TR()
+    (brake,) = tr.on_message("ReportParkingBrake", decoded("ReportParkingBrake", {
+        "commanded_parking_brake": 100.0, "actual_parking_brake": 0.0}), CTX)
+    assert brake.topic == "DeviceStatus"
+    assert brake.sample["device"] == "parking_brake" and brake.sample["state"] == "RELEASED"
+    assert brake.sample["commanded_value"] == pytest.approx(100.0)
+    (gear,) = tr.on_message("ReportTransmissionState", decoded("ReportTransmissionState", {
+        "requested_transmission_state": 3, "actual_transmission_state": 1}), CTX)
+    assert (gear.sample["state"], gear.sample["commanded_state"]) == ("PARK", "REVERSE")
+
+
+def test_power_plants_one_sample_each() -> None:
+    fields = decoded("ReportPowerPlantStatus", {"power_plant_status_list": [
+        {"power_plant_desc_rec": {"power_plant_id": 1, "description": "main battery"},
+         "power_plant_status_var": {"battery_status": {
+             "percent_charge_remaining": 81.5, "voltage": 24.2, "battery_temp": -10.0}}},
+        {"power_plant_desc_rec": {"power_plant_id": 2, "description": "generator"},
+         "power_plant_status_var": {"diesel_engine_status": {"engine_hours": 1234}}},
+    ]})
+    samples = [a.sample for a in TR().on_message("ReportPowerPlantStatus", fields, CTX)]
+    assert [s["plant_id"] for s in samples] == [1, 2]
+    battery, diesel = samples
+    assert battery["kind"] == "battery" and battery["description"] == "main battery"
+    assert battery["remaining_percent"] == pytest.approx(81.5, abs=0.01)
+    assert battery["voltage"] == pytest.approx(24.2, abs=0.02)
+    assert battery["temperature"] == pytest.approx(-10.0, abs=0.01)  # below zero
+    assert battery["current"] != battery["current"]  # not reported: NaN
+    assert diesel["kind"] == "diesel_engine" and diesel["hours"] == 1234.0
+
+
+def test_odometry_in_metres() -> None:
+    (odo,) = TR().on_message("ReportOdometry",
+                             decoded("ReportOdometry", {"odom": 2, "odometry": 4_294_967_295}),
+                             CTX)
+    assert odo.sample["odometer"] == "TRIP_A" and odo.sample["distance"] == 4_294_967_295.0
+
+
+def test_not_translated_messages_are_listed_by_the_mappings_command() -> None:
+    rows = [r for r in collect(only=["ugv"]) if r["direction"] == "none"]
+    assert {r["message"] for r in rows} == {name for name, _ in NOT_TRANSLATED}
+    assert all(name in CAT for name, _ in NOT_TRANSLATED)  # real UGV messages
