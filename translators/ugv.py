@@ -86,12 +86,14 @@ def _plant(*names: str) -> Computed:
     def pick(plant: Mapping[str, Any]) -> float:
         status = plant.get("power_plant_status_var") or {}
         values = next(iter(status.values()), {}) if status else {}
+        if isinstance(values, list):  # the JSIDL wraps each status record in a list
+            values = values[0] if values else {}
         for name in names:
             if name in values:
                 return float(values[name])
         return NAN
 
-    return Computed(pick, " | ".join(f"power_plant_status_var.*.{n}" for n in names))
+    return Computed(pick, " | ".join(f"power_plant_status_var.*[0].{n}" for n in names))
 
 
 def _plant_kind(plant: Mapping[str, Any]) -> str:

@@ -83,10 +83,10 @@ def test_parking_brake_and_transmission_status() -> None:
 def test_power_plants_one_sample_each() -> None:
     fields = decoded("ReportPowerPlantStatus", {"power_plant_status_list": [
         {"power_plant_desc_rec": {"power_plant_id": 1, "description": "main battery"},
-         "power_plant_status_var": {"battery_status": {
-             "percent_charge_remaining": 81.5, "voltage": 24.2, "battery_temp": -10.0}}},
+         "power_plant_status_var": {"battery_status": [{
+             "percent_charge_remaining": 81.5, "voltage": 24.2, "battery_temp": -10.0}]}},
         {"power_plant_desc_rec": {"power_plant_id": 2, "description": "generator"},
-         "power_plant_status_var": {"diesel_engine_status": {"engine_hours": 1234}}},
+         "power_plant_status_var": {"diesel_engine_status": [{"engine_hours": 1234}]}},
     ]})
     samples = [a.sample for a in TR().on_message("ReportPowerPlantStatus", fields, CTX)]
     assert [s["plant_id"] for s in samples] == [1, 2]
