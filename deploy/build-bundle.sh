@@ -70,6 +70,9 @@ say "assembling $out"
 pip install -q --no-deps --no-index --find-links "$wheelhouse" --target "$work/site" \
     edge-vis "${deps[@]}"
 rm -rf "$work/site/bin"
+# Byte-code that stays valid after extraction (file times change then): the first start on
+# the relay does not compile anything.
+"$PYTHON" -m compileall -q -f --invalidation-mode unchecked-hash "$work/site" >/dev/null
 if ! "$PYTHON" -c "import shiv" 2>/dev/null; then
     pip install -q --target "$work/tools" 'shiv>=1.0.4,<2'
     export PYTHONPATH="$work/tools${PYTHONPATH:+:$PYTHONPATH}"

@@ -102,6 +102,14 @@ class PeerStats:
     messages_out: int = 0
     malformed: int = 0
 
+    def as_dict(self) -> dict[str, int]:
+        """Plain values (for JSON output)."""
+        return {
+            "bytes_in": self.bytes_in, "bytes_out": self.bytes_out,
+            "messages_in": self.messages_in, "messages_out": self.messages_out,
+            "malformed": self.malformed,
+        }
+
 
 @dataclass(frozen=True, slots=True)
 class LinkStats:
@@ -130,18 +138,9 @@ class LinkStats:
             "bytes_out": self.bytes_out, "messages_in": self.messages_in,
             "messages_out": self.messages_out, "malformed": self.malformed,
             "drops": dict(self.drops), "queue_depth": self.queue_depth,
-            "peers": {k: vars_of(v) for k, v in self.peers.items()},
+            "peers": {k: v.as_dict() for k, v in self.peers.items()},
             "last_error": self.last_error,
         }
-
-
-def vars_of(stats: PeerStats) -> dict[str, int]:
-    """The fields of a :class:`PeerStats` as a dict."""
-    return {
-        "bytes_in": stats.bytes_in, "bytes_out": stats.bytes_out,
-        "messages_in": stats.messages_in, "messages_out": stats.messages_out,
-        "malformed": stats.malformed,
-    }
 
 
 class _PeerCounters:

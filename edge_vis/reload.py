@@ -9,11 +9,11 @@ restart, so ``systemctl status`` can show it.
 What can change without a restart:
 
 * timing the engine reads each time it uses it (``discovery.*``), the relay ``name``;
-* report rates, event/command/control timing, authority and vehicle profiles: the engine
-  captures these when it sets a vehicle up. If the engine offers
-  ``apply_profile(profile, now)`` they are applied to running vehicles at once; otherwise
-  they take effect for vehicles, subscriptions and commands set up from now on, and the
-  log says so (``deferred``).
+* report rates, event/command/control timing, authority and vehicle profiles, which the
+  engine captures when it sets a vehicle up: :meth:`Runtime.apply_profile` hands them to
+  :meth:`Engine.apply_profile`, which re-requests events whose rate changed (no vehicle
+  is dropped) and applies the rest from the next request. A vehicle profile that would
+  rename a running vehicle is refused and logged as needing a restart.
 
 What needs a restart: the relay's JAUS id, links (opened once; a vehicle behind a link
 would be dropped), the DDS domain and partitions (writers and readers), the translator
@@ -27,7 +27,6 @@ runs on with the profile it has.
 
 from __future__ import annotations
 
-import asyncio
 import dataclasses
 import logging
 from collections.abc import Callable, Mapping
@@ -116,11 +115,12 @@ class ReloadResult:
 
 
 def diff_profiles(old: RelayProfile, new: RelayProfile, *,
-                  engine_applies: bool = False) -> list[Change]:
+                  engine_applies: bool = True) -> list[Change]:
     """Every setting that differs between ``old`` and ``new``, classified.
 
-    ``engine_applies`` says the engine can apply captured settings (report rates, vehicle
-    profiles, ...) to running vehicles; without it they are :data:`DEFERRED`.
+    ``engine_applies`` says the engine applies captured settings (report rates, vehicle
+    profiles, ...) to running vehicles (:meth:`Engine.apply_profile`); without it they
+    are :data:`DEFERRED` to what is set up later.
     """
     changes: list[Change] = []
     for fld in dataclasses.fields(RelayProfile):
@@ -215,7 +215,8 @@ def _show(value: Any) -> str:
 
 
 class Reloader:
-    """Re-reads the profile with ``load`` and applies it to a running :class:`Runtime`.
+    """Re-reads the profile with ``load`` and applies it to a running
+    :class:`~edge_vis.runtime.Runtime` (anything with ``profile`` and ``apply_profile``).
 
     ``load`` returns the validated profile with the command line's overrides applied
     (the same function that built the profile at start). ``on_done`` is called after every
@@ -254,18 +255,9 @@ class Reloader:
         """Apply ``new`` to the runtime; log and return what changed."""
         runtime = self.runtime
         old: RelayProfile = runtime.profile
-        engine = runtime.engine
-        engine_apply = getattr(engine, "apply_profile", None)
-        changes = diff_profiles(old, new, engine_applies=callable(engine_apply))
+        changes = diff_profiles(old, new)
         profile = effective_profile(old, new)
-        runtime.profile = profile
-        if engine is not None:
-            if callable(engine_apply):
-                engine_apply(profile, _now(runtime))
-                if hasattr(runtime, "_pump_engine"):  # carry out what the engine decided
-                    runtime._pump_engine(_now(runtime))
-            else:
-                engine.profile = profile
+        not_applied = runtime.apply_profile(profile) if changes else []
         self.reloads += 1
         result = ReloadResult(tuple(changes), profile)
         self.restart_needed = result.restart_needed
@@ -276,17 +268,14 @@ class Reloader:
                 log.info("reload: deferred %s (%s)", change.describe(), change.why)
             else:
                 log.warning("reload: needs a restart: %s (%s)", change.describe(), change.why)
+        for note in not_applied:
+            log.warning("reload: needs a restart: %s", note)
         log.info("reload of %s done: %s", profile.source or "the profile", result.summary())
         return result
 
     def _finish(self, result: ReloadResult | None) -> None:
         if self._on_done is not None:
             self._on_done(result)
-
-
-def _now(runtime: Any) -> float:
-    loop = getattr(runtime, "_loop", None)
-    return loop.time() if loop is not None else asyncio.get_running_loop().time()
 
 
 __all__ = [

@@ -271,9 +271,13 @@ class Router:
     # -- input from links ----------------------------------------------------------------
     def receive(self, link: str, peer: Peer, packets: Sequence[Packet], now: float
                 ) -> list[Action]:
-        """Route packets that arrived on ``link`` from ``peer``."""
+        """Route packets that arrived on ``link`` from ``peer``.
+
+        Never raises: packets from a link that was not added are counted and dropped.
+        """
         if link not in self._links:
-            raise ValueError(f"unknown link {link!r}")
+            self.counters["dropped: unknown link"] += len(packets)
+            return []
         actions: list[Action] = []
         out: dict[tuple[str, Peer | None], list[Packet]] = {}
         counters = self.counters
@@ -291,7 +295,7 @@ class Router:
                 counters["dropped: own source"] += 1
                 continue
             dest = packet.destination
-            key = (source.id, dest.id, packet.sequence, packet.flags & 0xCF,
+            key = (source.id, dest.id, packet.sequence, packet.data_flags,
                    hash(packet.payload))
             route = learned.get(source)
             if key in seen:
@@ -325,7 +329,7 @@ class Router:
                 self._deliver_up(actions, packet, link, peer, now)
             # forwarding to other links
             if not dest.is_broadcast:
-                route = self.lookup(dest)
+                route = learned.get(dest) or self.lookup(dest)
                 if route is not None:
                     if route.link == link:
                         counters["dropped: destination on arrival link"] += 1

@@ -170,6 +170,20 @@ class Runtime:
                  ", ".join(published), ", ".join(subscribed))
         return bridge
 
+    def apply_profile(self, profile: RelayProfile) -> list[str]:
+        """Take a reloaded profile (SIGHUP, :mod:`edge_vis.reload`) while running.
+
+        ``profile`` must keep this relay's id, links, DDS and translators; the engine
+        applies rates, timing and vehicle profiles. Returns what it could not apply.
+        """
+        self.profile = profile
+        if self.engine is None or self._loop is None:
+            return []
+        now = self._loop.time()
+        not_applied = self.engine.apply_profile(profile, now)
+        self._pump_engine(now)
+        return not_applied
+
     def request_stop(self) -> None:
         """Ask the relay to stop (signal handlers call this)."""
         if self._stopped is not None and not self._stopped.is_set():

@@ -19,7 +19,7 @@ from typing import ClassVar
 
 from edge_vis.errors import DecodeError
 from edge_vis.jaus.transport import Packet, pack_datagram, unpack_datagram
-from edge_vis.link import Link, Peer
+from edge_vis.link import Link, LinkUrl, Peer
 from edge_vis.router import Action, Deliver, DeliveryFailed, Router, SendPackets
 
 _BUSES: dict[str, dict[str, MemoryLink]] = {}
@@ -37,7 +37,7 @@ class MemoryLink(Link):
     scheme: ClassVar[str] = "loop"
     options: ClassVar[frozenset[str]] = frozenset({"addr"})
 
-    def __init__(self, url: str, *, name: str | None = None) -> None:
+    def __init__(self, url: str | LinkUrl, *, name: str | None = None) -> None:
         super().__init__(url, name=name)
         self.bus = self.url.host or "default"
         self.addr = self.url.options.get("addr") or f"anon{next(_anonymous)}"

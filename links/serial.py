@@ -29,7 +29,6 @@ import contextlib
 import errno
 import logging
 import os
-from collections import deque
 from collections.abc import Sequence
 from typing import ClassVar
 
@@ -73,11 +72,10 @@ class SerialLink(Link):
         self._fd: int | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._deframer = SerialDeframer(timeout=self.frame_timeout)
-        self._out: deque[memoryview] = deque()
-        self._out_bytes = 0
+        self._out = bytearray()  # framed bytes not yet written
         self._budget = 0.0
         self._budget_time = 0.0
-        self._pump_handle: asyncio.TimerHandle | None = None
+        self._pump_handle: asyncio.Handle | None = None
         self._writer_armed = False
         self._reopen_task: asyncio.Task[None] | None = None
         self.reopened = 0
@@ -118,10 +116,9 @@ class SerialLink(Link):
                 self._port.close()
         self._port = None
         self._fd = None
-        if self._out_bytes:
-            self.counters.dropped("link down", len(self._out))
+        if self._out:
+            self.counters.dropped("link down (bytes unsent)", len(self._out))
         self._out.clear()
-        self._out_bytes = 0
 
     async def _close(self) -> None:
         if self._reopen_task is not None:
@@ -152,7 +149,7 @@ class SerialLink(Link):
 
     @property
     def queue_depth(self) -> int:
-        return self._out_bytes
+        return len(self._out)
 
     # -- receiving -------------------------------------------------------------------
     def _readable(self) -> None:
@@ -185,61 +182,55 @@ class SerialLink(Link):
         if self._fd is None:
             self.counters.dropped("link down", len(packets))
             return
+        out = self._out
         for packet in packets:
-            if self._out_bytes > MAX_WRITE_BUFFER:
+            if len(out) > MAX_WRITE_BUFFER:
                 self.counters.dropped("send buffer full")
                 continue
             data = frame(packet)
-            self._out.append(memoryview(data))
-            self._out_bytes += len(data)
+            out += data
             self.counters.sent(self.path, len(data), 1)
-        self._pump()
+        # write once per loop iteration: frames queued by one burst of input share a
+        # system call (a radio gains nothing from many small writes)
+        if self._pump_handle is None and not self._writer_armed and self._loop is not None:
+            self._pump_handle = self._loop.call_soon(self._pump)
 
     def _pump(self) -> None:
         """Write what the pacing budget allows; schedule the rest."""
+        self._pump_handle = None
         fd = self._fd
         loop = self._loop
-        if fd is None or loop is None or self._writer_armed:
+        out = self._out
+        if fd is None or loop is None or self._writer_armed or not out:
             return
-        if self._pump_handle is not None:
-            self._pump_handle.cancel()
-            self._pump_handle = None
-        now = loop.time()
         if self.pace:
+            now = loop.time()
             burst = max(64.0, self.bytes_per_second * 0.01)
             self._budget = min(burst, self._budget + (now - self._budget_time)
                                * self.bytes_per_second)
             self._budget_time = now
-        out = self._out
-        while out:
-            chunk = out[0]
-            allowed = int(self._budget) if self.pace else len(chunk)
-            if allowed <= 0:
-                break
-            piece = chunk[:allowed]
+            allowed = min(len(out), int(self._budget))
+        else:
+            allowed = len(out)
+        if allowed > 0:
             try:
-                written = os.write(fd, piece)
+                written = os.write(fd, out[:allowed])
             except BlockingIOError:
                 written = 0
             except OSError as exc:
-                if exc.errno in (errno.EAGAIN, errno.EWOULDBLOCK):
-                    written = 0
-                else:
+                if exc.errno not in (errno.EAGAIN, errno.EWOULDBLOCK):
                     self._lost(f"write {self.path}: {exc.strerror or exc}")
                     return
+                written = 0
             if written == 0:  # the port is full: wait until it drains
                 loop.add_writer(fd, self._writable)
                 self._writer_armed = True
                 return
-            self._out_bytes -= written
+            del out[:written]
             if self.pace:
                 self._budget -= written
-            if written == len(chunk):
-                out.popleft()
-            else:
-                out[0] = chunk[written:]
         if out:
-            wait = (1.0 - self._budget) / self.bytes_per_second
+            wait = (1.0 - self._budget) / self.bytes_per_second if self.pace else 0.0
             self._pump_handle = loop.call_later(max(wait, 0.0005), self._pump)
 
     def _writable(self) -> None:

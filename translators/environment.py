@@ -36,7 +36,6 @@ from translators.generic import (
     ReportRule,
     RuleTranslator,
     describe_rules,
-    extract,
     get_path,
 )
 
@@ -204,18 +203,22 @@ class EnvironmentTranslator(RuleTranslator):
             return super().on_message(name, fields, ctx)
         (rule,) = self._by_message[name]
         actions: list[Action] = []
-        for element in fields.get("still_image_data_list") or []:
-            data = get_path(element, "image_frame.data")
-            if data is None:
-                continue
-            product = {"vehicle_id": ctx.vehicle.vehicle_id,
-                       **{k: extract(s, element) for k, s in rule.fields.items()},
-                       "capture_time_ms": ctx.timestamp_ms}
+        elements = [e for e in fields.get("still_image_data_list") or []
+                    if get_path(e, "image_frame.data") is not None]
+        for element, product in zip(elements, self.samples(rule, fields, ctx), strict=True):
             actions.append(Publish("ImageProduct", product))
-            actions.extend(Publish("ImageData", chunk)
-                           for chunk in image_chunks(ctx.vehicle.vehicle_id,
-                                                     product["image_id"], bytes(data)))
+            actions.extend(Publish("ImageData", chunk) for chunk in image_chunks(
+                ctx.vehicle.vehicle_id, product["image_id"],
+                bytes(get_path(element, "image_frame.data"))))
         return actions
+
+    def samples(self, rule: ReportRule, fields: Mapping[str, Any],
+                ctx: TranslatorContext) -> list[dict[str, Any]]:
+        out = super().samples(rule, fields, ctx)
+        if rule.message == "ReportStillImageData":  # stamped on arrival: TimeStamp has no date
+            for product in out:
+                product["capture_time_ms"] = ctx.timestamp_ms
+        return out
 
     def describe(self) -> list[dict[str, Any]]:
         rows = super().describe()

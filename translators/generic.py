@@ -25,8 +25,9 @@ did not carry (NaN) keeps its earlier value.
 
 DDS -> JAUS, a :class:`CommandRule`: ``fields`` maps JAUS field paths to :class:`Put`
 (one DDS member, clamped to the JAUS field's limits) or :class:`PutEach` (a JAUS list from
-a DDS sequence). ``when`` selects the rule by sample values (``{"quantity": "position"}``),
-so one topic can drive several messages. Commands go out as
+a DDS sequence) or :class:`Build` (a function of the sample). ``when`` selects the rule by
+sample values (``{"quantity": "position"}``, a tuple of values, or a predicate), so one
+topic can drive several messages. Commands go out as
 :class:`~edge_vis.engine.actions.Command`: the engine gates them on control and throttles
 them.
 
@@ -151,6 +152,16 @@ class PutEach:
 
 
 @dataclass(frozen=True, slots=True)
+class Build:
+    """A JAUS field built from the whole DDS sample by ``fn`` (``dds`` names the members it
+    reads, for the mapping table); a ValueError refuses the command."""
+
+    dds: str
+    fn: Callable[[Mapping[str, Any]], Any]
+    note: str = ""
+
+
+@dataclass(frozen=True, slots=True)
 class CommandRule:
     """A sample of DDS ``topic`` (matching ``when``) -> JAUS command ``message`` to the
     component offering ``service``; ``kind`` groups commands for throttling and ``stop``,
@@ -161,7 +172,7 @@ class CommandRule:
     message: str
     service: str
     kind: str
-    fields: Mapping[str, Put | PutEach]
+    fields: Mapping[str, Put | PutEach | Build]
     when: Mapping[str, Any] = field(default_factory=dict)
     stop: Mapping[str, Any] | Callable[[Mapping[str, Any]], Mapping[str, Any]] | None = None
     doc: str = ""
@@ -276,8 +287,10 @@ def extract(spec: Spec, fields: Mapping[str, Any]) -> Any:
     return spec.fn(fields)
 
 
-def put(spec: Put | PutEach, sample: Mapping[str, Any]) -> tuple[bool, Any]:
+def put(spec: Put | PutEach | Build, sample: Mapping[str, Any]) -> tuple[bool, Any]:
     """Evaluate one JAUS field spec against a DDS sample: (present, value)."""
+    if isinstance(spec, Build):
+        return True, spec.fn(sample)
     if isinstance(spec, PutEach):
         values = sample.get(spec.dds) or []
         return True, [spec.item(v, i, sample) for i, v in enumerate(values)]
@@ -422,6 +435,8 @@ class RuleTranslator(Translator):
 
 
 def _matches(value: Any, wanted: Any) -> bool:
+    if callable(wanted):
+        return bool(wanted(value))
     if isinstance(wanted, tuple):
         return any(_matches(value, w) for w in wanted)
     if isinstance(wanted, str) and isinstance(value, str):
@@ -471,7 +486,8 @@ def describe_rules(translator: str, report_rules: Sequence[ReportRule],
             "doc": r.doc,
         })
     for c in command_rules:
-        when = ", ".join(f"{k}={v}" for k, v in c.when.items())
+        when = ", ".join(f"{k}={getattr(v, '__doc__', None) or v}" if callable(v)
+                         else f"{k}={v}" for k, v in c.when.items())
         rows.append({
             "translator": translator, "direction": "dds->jaus", "message": c.message,
             "topic": c.topic, "query": "", "service": c.service, "rate": None,
@@ -486,7 +502,9 @@ def describe_rules(translator: str, report_rules: Sequence[ReportRule],
     return rows
 
 
-def _put_note(spec: Put | PutEach) -> str:
+def _put_note(spec: Put | PutEach | Build) -> str:
+    if isinstance(spec, Build):
+        return spec.note
     if isinstance(spec, PutEach):
         return spec.note or "one element per item"
     parts = [spec.note] if spec.note else []

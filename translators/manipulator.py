@@ -13,7 +13,8 @@ JAUS -> DDS:
 
 DDS -> JAUS (behind control, throttled by the engine):
 
-* ``JointCommand`` -> SetJointPositions / SetJointVelocity / SetJointEffort, or the
+* ``JointCommand`` -> SetJointPositions / SetJointVelocity / SetJointEffort /
+  SetActuatorForceTorques, or the
   SetPanTilt* equivalents for device ``pan_tilt`` (values clamped to the JSIDL limits);
   velocity and effort are motion commands (dead-man stop = zero);
 * ``EndEffectorCommand`` -> SetEndEffectorPose / SetEndEffectorVelocityState /
@@ -118,6 +119,13 @@ def _velocity(value: Any, index: int, sample: Mapping[str, Any]) -> dict[str, An
     return {"joint_velocity": {"radian_per_second": _lim(value, REVOLUTE_RATE)}}
 
 
+def _force(value: Any, index: int, sample: Mapping[str, Any]) -> dict[str, Any]:
+    units = sample.get("units") or ()
+    if index < len(units) and str(units[index]).strip().lower() in ("n", "newton"):
+        return {"joint_force_torque": {"newton": _lim(value, 500.0)}}
+    return {"joint_force_torque": {"newton_meter": _lim(value, 1000.0)}}
+
+
 def _effort(value: Any, index: int, sample: Mapping[str, Any]) -> dict[str, Any]:
     return {"joint_effort": _lim(value, 100.0)}
 
@@ -169,6 +177,10 @@ class ManipulatorTranslator(RuleTranslator):
         _joints("ReportCommandedJointVelocity", "commanded_velocity", "joint_velocity_list",
                 "joint_velocity", _VEL_UNITS, "QueryCommandedJointVelocity",
                 MANIP + "ManipulatorJointVelocityDriver", rate=1.0),
+        _joints("ReportCommandedActuatorForceTorques", "commanded_force_torque",
+                "actuator_force_torque_list", "joint_force_torque", _FT_UNITS,
+                "QueryCommandedActuatorForceTorques",
+                MANIP + "ManipulatorActuatorForceTorqueDriver", rate=1.0),
         _pan_tilt("ReportPanTiltJointPositions", "position", "position", "rad",
                   "QueryPanTiltJointPositions", MANIP + "PanTiltJointPositionSensor"),
         _pan_tilt("ReportPanTiltJointVelocity", "velocity", "velocity", "rad/s",
@@ -220,6 +232,13 @@ class ManipulatorTranslator(RuleTranslator):
             {"joint_effort_list": PutEach("values", _effort, "percent, clamped to +-100")},
             when={"device": ("manipulator", ""), "quantity": "effort"},
             stop=_zeros("joint_effort_list", "joint_effort", None), doc="motion: dead-man stop"),
+        Cmd("JointCommand", "SetActuatorForceTorques",
+            MANIP + "ManipulatorActuatorForceTorqueDriver", "joint_force_torque",
+            {"actuator_force_torque_list": PutEach(
+                "values", _force, "N m, or N where units[i] is N; clamped")},
+            when={"device": ("manipulator", ""), "quantity": "force_torque"},
+            stop=_zeros("actuator_force_torque_list", "joint_force_torque", "variant"),
+            doc="motion: dead-man stop"),
         Cmd("JointCommand", "SetPanTiltJointPositions", MANIP + "PanTiltJointPositionDriver",
             "pan_tilt_position",
             {"joint1_position": Put("values[0]", -REVOLUTE_LIMIT, REVOLUTE_LIMIT),
@@ -270,8 +289,6 @@ class ManipulatorTranslator(RuleTranslator):
         ("ReportJointMotionProfile", "motion profiles are not exposed over DDS"),
         ("ReportPanTiltMotionProfile", "motion profiles are not exposed over DDS"),
         ("ReportEndEffectorSpecification", "end-effector parent link; no topic in the model"),
-        ("ReportCommandedActuatorForceTorques", "actuator force/torque commands not bridged"),
-        ("SetActuatorForceTorques", "actuator force/torque commands not bridged"),
         ("SetToolOffset", "tool offset is set on the vehicle, not from DDS"),
         ("SetJointMotionProfile", "motion profiles are not exposed over DDS"),
         ("ExecuteList", "manipulator list drivers: not bridged (the name collides with "

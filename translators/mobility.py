@@ -18,7 +18,8 @@ DDS -> JAUS (commands, throttled and control-checked by the engine):
   (stop = all zero)
 * ``WaypointPlan`` -> the List Manager sequence to the Global/LocalWaypointListDriver
   (DeleteElement, SetElement with Set{Global,Local}Waypoint elements, ExecuteList), or
-  Set{Global,Local}Waypoint one at a time to a vehicle with only a waypoint driver (see
+  SetTravelSpeed and Set{Global,Local}Waypoint one at a time to a vehicle with only a
+  waypoint driver (see
   :class:`WaypointMissions`)
 
 Fields a vehicle does not report are published as NaN, so "not reported" never reads as
@@ -187,7 +188,20 @@ class WaypointMissions:
             mission.steps = self._list_steps(mission)
             return [self._next_step(vehicle.vehicle_id), self._status(vehicle.vehicle_id, ctx)]
         mission.active, mission.state = 0, "EXECUTING"
-        return [self._waypoint(vehicle.vehicle_id, 0), self._status(vehicle.vehicle_id, ctx)]
+        # a waypoint driver drives at its travel speed: set it first (its own throttle
+        # slot, so it is not coalesced away by the waypoint)
+        speed = Command(vehicle.vehicle_id, mission.operator_id, "waypoint_speed",
+                        "SetTravelSpeed", {"speed": _clamp(self._speed(mission), 0.0, 327.67)},
+                        mission.service)
+        return [speed, self._waypoint(vehicle.vehicle_id, 0),
+                self._status(vehicle.vehicle_id, ctx)]
+
+    @staticmethod
+    def _speed(mission: _Mission) -> float:
+        """The plan's speed; 0 means the last reported travel speed, else the default."""
+        if mission.speed > 0:
+            return mission.speed
+        return mission.travel_speed if mission.travel_speed > 0 else DEFAULT_SPEED
 
     def on_message(self, name: str, fields: Mapping[str, Any],
                    ctx: TranslatorContext) -> list[Action]:
@@ -231,8 +245,9 @@ class WaypointMissions:
                 or mission.local != (name == "ReportLocalPose")):
             return []
         target = mission.waypoints[mission.active]
-        if _distance(target, fields, mission.local) > (target.get("tolerance") or
-                                                       DEFAULT_TOLERANCE):
+        sent = waypoint_fields(target, mission.local)  # where the vehicle was sent
+        if _distance(sent, fields, mission.local) > (target.get("tolerance") or
+                                                     DEFAULT_TOLERANCE):
             return []
         mission.active += 1
         if mission.active >= len(mission.waypoints):
@@ -269,9 +284,7 @@ class WaypointMissions:
             mission.request_id = self._request_id
             fields = {"request_id_rec": {"request_id": mission.request_id}, **fields}
         else:
-            speed = mission.speed or (mission.travel_speed if mission.travel_speed > 0
-                                      else DEFAULT_SPEED)
-            name, fields = "ExecuteList", {"speed": _clamp(speed, 0.0, 327.67),
+            name, fields = "ExecuteList", {"speed": _clamp(self._speed(mission), 0.0, 327.67),
                                            "element_uid": 1}
             mission.state = "EXECUTING"
         return Command(vehicle_id, mission.operator_id, "waypoint", name, fields,
@@ -404,9 +417,16 @@ class MobilityTranslator(Translator):
                 ("SetElement", f"<= {ELEMENTS_PER_SET} waypoints each, linked previous/next"),
                 ("SetGlobalWaypoint", "list element data, or sent alone to a waypoint driver"),
                 ("SetLocalWaypoint", "frame LOCAL"),
+                ("SetTravelSpeed", "before the first waypoint, for waypoint drivers"),
                 ("ExecuteList", "speed; after the last ConfirmElementRequest")):
-            fields = [("speed", "speed", "0 = last travel speed")] if name == "ExecuteList" \
-                else plan
+            fields = {"ExecuteList": [("speed", "speed", "0 = last travel speed"),
+                                      ("element_uid", "= 1", "the first waypoint")],
+                      "SetTravelSpeed": [("speed", "speed", "0 = last travel speed")],
+                      "DeleteElement": [("delete_element_list[].element_uid", "= 65535",
+                                         "")],
+                      "SetElement": [("element_list[].element_data", "waypoints[]",
+                                      "Set*Waypoint message, UIDs 1..n")],
+                      }.get(name, plan)
             rows.append(row("dds->jaus", name, "WaypointPlan", fields, doc=note))
         for name, fields in (
                 ("ReportActiveElement", [("element_uid", "active_waypoint", "uid - 1"),

@@ -6,31 +6,41 @@ JAUS -> DDS:
 * ReportPlatformSpecifications -> ``PlatformSpecifications``;
 * ReportPowerPlantStatus -> one ``PowerPlantStatus`` per engine/battery/fuel cell;
 * ReportParkingBrake, ReportIlluminationState, ReportTransmissionState,
-  ReportTransferCaseState, ReportAnnunciatorState -> ``DeviceStatus`` (device
-  ``parking_brake``, ``illumination``, ``transmission``, ``transfer_case``,
-  ``annunciator``).
+  ReportTransferCaseState, ReportAnnunciatorState, ReportAckermannConfiguration,
+  ReportSkidSteerEffort, ReportStabilizerPosition/Effort, ReportPowerPlantConfiguration ->
+  ``DeviceStatus`` (device ``parking_brake``, ``illumination``, ``transmission``,
+  ``transfer_case``, ``annunciator``, ``steering``/``throttle``/``brake``,
+  ``left_track``/``right_track``, ``stabilizer_<id>``, ``power_plant_<id>``).
 
 DDS -> JAUS (behind control, throttled): ``DeviceCommand`` by device -> SetParkingBrake,
 SetIlluminationState, SetTransmissionState, SetTransferCaseState, SetAnnunciatorState,
-ResetOdometry. The UGV messages this translator leaves alone are listed in
+ResetOdometry, SetStabilizerPosition (``stabilizer_<id>``), SetStabilizerEffort
+(``stabilizer_<id>_effort``), SetPowerPlantConfiguration (``power_plant_<id>``).
+
+The UGV messages this translator leaves alone are listed in
 :data:`NOT_TRANSLATED` (``edge-vis mappings`` prints them).
 """
 
 from __future__ import annotations
 
+import math
+import re
 from collections.abc import Mapping
 from typing import Any
 
 from translators.generic import (
     NAN,
+    Build,
     Computed,
     Const,
     From,
     Put,
     ReportRule,
     RuleTranslator,
+    clamp,
     code_of,
     flags,
+    get_path,
     label,
 )
 from translators.generic import CommandRule as Cmd
@@ -41,6 +51,7 @@ GEARS = {0: "DEFAULT", 1: "PARK", 2: "NEUTRAL", 3: "REVERSE", 4: "DRIVE", 5: "OV
          6: "L1", 7: "L2", 8: "L3", 9: "L4", 10: "L5", 11: "L6"}
 TRANSFER_CASE = {0: "DEFAULT", 1: "FWD", 2: "AUTO_4WD", 3: "MANUAL_LOW_4WD",
                  4: "MANUAL_HIGH_4WD", 5: "LOW_AWD", 6: "HIGH_AWD"}
+POWER_STATES = {1: "POWER_ON", 2: "POWER_OFF", 3: "POWER_STANDBY"}
 ODOMETERS = {1: "PLATFORM", 2: "TRIP_A", 3: "TRIP_B", 4: "TRIP_C"}
 #: lights of SetIlluminationState; variable lights take a level 0..15 ("variable_light1=7")
 LIGHTS = ("headlights", "left_turn_signal", "right_turn_signal", "running_lights",
@@ -105,6 +116,38 @@ def _steering(f: Mapping[str, Any]) -> str:
     return next(iter(f.get("platform_specifics") or {}), "")
 
 
+def _device_pattern(prefix: str, suffix: str) -> Any:
+    """Selector: device names ``<prefix><number><suffix>`` (``stabilizer_2``)."""
+    pattern = re.compile(re.escape(prefix) + r"\d{1,3}" + re.escape(suffix) + "$")
+
+    def matches(value: Any) -> bool:
+        return isinstance(value, str) and bool(pattern.match(value.strip().lower()))
+
+    matches.__doc__ = f"{prefix}<id>{suffix}"
+    return matches
+
+
+def _numbered(device: str) -> int:
+    number = int(re.findall(r"\d+", device)[0])
+    if number > 255:
+        raise ValueError(f"{device}: an id is 0..255")
+    return number
+
+
+def _number(value: Any) -> float:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        raise ValueError("value is not set")
+    return float(value)
+
+
+def _plant_configuration(sample: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """One plant's power state; the battery alternative carries just that state."""
+    state = code_of(POWER_STATES)(sample.get("state", ""))
+    return [{"power_plant_id": {"power_plant_id": _numbered(sample["device"])},
+             "power_plant_configuration_var": {"battery_configuration_rec": {
+                 "power_state": state}}}]
+
+
 def _device(message: str, device: str, fields: Mapping[str, Any], query: str,
             service: str) -> ReportRule:
     return ReportRule(message, "DeviceStatus", {"device": Const(device), **fields},
@@ -112,18 +155,11 @@ def _device(message: str, device: str, fields: Mapping[str, Any], query: str,
 
 
 NOT_TRANSLATED: tuple[tuple[str, str], ...] = (
-    ("ReportSkidSteerEffort", "drive efforts: commanded through WrenchEffortCommand"),
     ("SetSkidSteerEffort", "drive efforts: commanded through WrenchEffortCommand"),
-    ("ReportAckermannConfiguration", "steering/throttle/brake efforts: no topic in the model"),
-    ("SetAckermannConfiguration", "steering/throttle/brake efforts: no topic in the model"),
-    ("ReportStabilizerEffort", "stabilizers (flippers): no topic in the model"),
-    ("ReportStabilizerPosition", "stabilizers (flippers): no topic in the model"),
-    ("ReportStabilizerCapabilities", "stabilizers (flippers): no topic in the model"),
-    ("SetStabilizerEffort", "stabilizers (flippers): no topic in the model"),
-    ("SetStabilizerPosition", "stabilizers (flippers): no topic in the model"),
-    ("ReportPowerPlantConfiguration", "engine on/off configuration: not exposed"),
+    ("SetAckermannConfiguration", "open-loop steering/throttle/brake: commanded through "
+                                  "WrenchEffortCommand or VelocityCommand"),
+    ("ReportStabilizerCapabilities", "stabilizer geometry: no topic in the model"),
     ("ReportPowerPlantCapabilities", "power plant limits: not exposed"),
-    ("SetPowerPlantConfiguration", "starting/stopping engines is not bridged"),
     ("ReportTransmissionCapabilities", "supported gears: not exposed"),
     ("ReportIlluminationConfiguration", "installed lights: not exposed"),
     ("ReportAnnunciatorConfiguration", "installed sounders: not exposed"),
@@ -179,6 +215,44 @@ class UgvTranslator(RuleTranslator):
         }, query="QueryPowerPlantStatus", service=UGV + "PowerPlantManager",
             query_fields={"id_list": []}, rate=0.5, split="power_plant_status_list",
             doc="one sample per power plant; an empty id list asks for all"),
+        *(ReportRule("ReportAckermannConfiguration", "DeviceStatus",
+                     {"device": Const(device), "value": From(field, note=unit)},
+                     query="QueryAckermannConfiguration", service=UGV + "AckermannDriver",
+                     rate=2.0)
+          for device, field, unit in (("steering", "steering_angle", "rad"),
+                                      ("throttle", "throttle_effort", "percent"),
+                                      ("brake", "brake_effort", "percent"))),
+        *(ReportRule("ReportSkidSteerEffort", "DeviceStatus",
+                     {"device": Const(f"{side}_track"),
+                      "value": From(f"{side}_side_propulsive_effort", note="percent")},
+                     query="QuerySkidSteerEffort", service=UGV + "SkidSteerDriver", rate=2.0)
+          for side in ("left", "right")),
+        ReportRule("ReportStabilizerPosition", "DeviceStatus",
+                   {"device": Computed(lambda e: f"stabilizer_{e.get('stabilizer_id', 0)}",
+                                       "stabilizer_<stabilizer_id>"),
+                    "value": From("actual_position", note="rad"),
+                    "commanded_value": From("commanded_position", note="rad")},
+                   query="QueryStabilizerPosition", service=UGV + "StabilizerDriver",
+                   query_fields={"stabilizer_id": []}, rate=1.0, split="stabilizer_position",
+                   doc="one sample per stabilizer (flipper); an empty id list asks for all"),
+        ReportRule("ReportStabilizerEffort", "DeviceStatus",
+                   {"device": Computed(
+                       lambda e: f"stabilizer_{e.get('stabilizer_id', 0)}_effort",
+                       "stabilizer_<stabilizer_id>_effort"),
+                    "value": From("effort", note="percent")},
+                   query="QueryStabilizerEffort", service=UGV + "StabilizerDriver",
+                   query_fields={"stabilizer_id": []}, rate=1.0, split="stabilizer_effort",
+                   doc="one sample per stabilizer"),
+        ReportRule("ReportPowerPlantConfiguration", "DeviceStatus",
+                   {"device": Computed(lambda e: "power_plant_" + str(
+                       get_path(e, "power_plant_id.power_plant_id", 0)),
+                                       "power_plant_<power_plant_id>"),
+                    "state": From("power_plant_configuration_var.*.power_state",
+                                  convert=label(POWER_STATES), default="")},
+                   query="QueryPowerPlantConfiguration", service=UGV + "PowerPlantManager",
+                   query_fields={"id_list": []}, rate=0.5, on_change=True,
+                   split="power_plant_configuration_list",
+                   doc="one sample per power plant: POWER_ON, POWER_OFF, POWER_STANDBY"),
         _device("ReportParkingBrake", "parking_brake",
                 {"state": Computed(_brake_state, "actual_parking_brake > 0"),
                  "value": From("actual_parking_brake", note="percent"),
@@ -223,6 +297,28 @@ class UgvTranslator(RuleTranslator):
             {"annunciator": Put("state", convert=bits_from(SOUNDERS, 15), default="",
                                 note="comma-separated sounders, optional =level")},
             when={"device": "annunciator"}),
+        Cmd("DeviceCommand", "SetStabilizerPosition", UGV + "StabilizerDriver", "stabilizer",
+            {"stabilizer_position": Build("device, value", lambda s: [{
+                "stabilizer_id": _numbered(s["device"]),
+                "position": clamp(_number(s.get("value")), -math.pi, math.pi)}],
+                "stabilizer_<id> -> stabilizer_id; value rad, clamped to +-pi")},
+            when={"device": _device_pattern("stabilizer_", "")}),
+        Cmd("DeviceCommand", "SetStabilizerEffort", UGV + "StabilizerDriver",
+            "stabilizer_effort",
+            {"stabilizer_effort": Build("device, value", lambda s: [{
+                "stabilizer_id": _numbered(s["device"]),
+                "effort": clamp(_number(s.get("value")), -100.0, 100.0)}],
+                "stabilizer_<id>_effort -> stabilizer_id; value percent, clamped")},
+            when={"device": _device_pattern("stabilizer_", "_effort")},
+            stop=lambda f: {"stabilizer_effort": [{**e, "effort": 0.0}
+                                                  for e in f["stabilizer_effort"]]},
+            doc="motion: dead-man stop"),
+        Cmd("DeviceCommand", "SetPowerPlantConfiguration", UGV + "PowerPlantManager",
+            "power_plant",
+            {"power_plant_configuration_list": Build("device, state", _plant_configuration,
+                                                     "power_plant_<id>; state POWER_ON, "
+                                                     "POWER_OFF or POWER_STANDBY")},
+            when={"device": _device_pattern("power_plant_", "")}),
         Cmd("DeviceCommand", "ResetOdometry", UGV + "OdometryService", "odometry",
             {"odometry_type": Put("state", convert=code_of(
                 {k: v for k, v in ODOMETERS.items() if k != 1}), note="TRIP_A|B|C")},

@@ -37,12 +37,18 @@ UUV = "urn:edge-vis:uuv:"
 VEHICLE_TYPES = {0: "UNKNOWN", 1: "AUV", 2: "ROV", 3: "GLIDER", 4: "USV", 5: "HYBRID"}
 IMAGE_FORMATS = {0: "jpeg", 1: "png", 2: "tiff", 3: "geotiff", 4: "raw_sonar", 5: "xtf",
                  6: "raw_camera"}
+INT64_MAX = (1 << 63) - 1
 ENVIRONMENT_FIELDS = ("water_temperature", "salinity", "depth", "current_speed",
                       "current_direction")
 
 
 def _image_id(f: Mapping[str, Any]) -> str:
     return f"atr-{int(f.get('image_id', 0))}"
+
+
+def _ms(value: object) -> int:
+    """A u64 millisecond time as DDS int64 (a value past year 292 million saturates)."""
+    return min(int(value), INT64_MAX)  # type: ignore[call-overload]
 
 
 def _targets(f: Mapping[str, Any]) -> list[dict[str, Any]]:
@@ -92,7 +98,8 @@ class UuvTranslator(RuleTranslator):
                     "sha256": From("sha256", convert=lambda b: bytes(b).hex(), default=""),
                     "transfer_id": Const("", "set when the bulk channel fetches it"),
                     "format": Computed(lambda f: _format(f), "format"),
-                    "capture_time_ms": From("capture_time", default=0, note="ms since epoch"),
+                    "capture_time_ms": From("capture_time", default=0, convert=_ms,
+                                            note="ms since epoch"),
                     "targets": Computed(_targets,
                                         "target_class, confidence, latitude, longitude")},
                    stamp=False, doc="announces the image; the bulk channel fetches it"),

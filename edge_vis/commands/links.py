@@ -45,9 +45,9 @@ async def probe(urls: list[str], listen: float, mirror: Mirror | None
     """Open each URL, listen, close; ``(url, stats or None, error)`` per URL."""
     results: list[tuple[str, LinkStats | None, str]] = []
     opened: list[tuple[str, Link]] = []
-    for index, url in enumerate(urls):
+    for url in urls:
         try:
-            link = create_link(url, name=f"link{index}")
+            link = create_link(url)
             if mirror is not None:
                 mirror.attach(link)
             await link.open(lambda *_: None)

@@ -104,21 +104,28 @@ def markdown(rows: list[dict[str, Any]]) -> str:
         skipped = [r for r in mine if r["direction"] == "none"]
         out += ["", f"## {name}", ""]
         if done:
-            out += ["| JAUS message | direction | DDS topic | fields (DDS ← JAUS) | notes |",
+            out += ["| JAUS message | direction | DDS topic | fields (target ← source) | notes |",
                     "|---|---|---|---|---|"]
             for r in done:
                 out.append("| " + " | ".join(_cell(x) for x in (
                     r["message"] + (f" (via {r['query']})" if r.get("query") else ""),
                     _ARROWS.get(r["direction"], r["direction"]), r["topic"],
-                    "; ".join(_field(f) for f in r["fields"]), _notes(r))) + " |")
+                    "; ".join(_field(f, r["direction"]) for f in r["fields"]),
+                    _notes(r))) + " |")
         if skipped:
             out += ["", "Not translated:", ""]
             out += [f"- {r['message']}: {r['doc']}" for r in skipped]
     return "\n".join(out) + "\n"
 
 
-def _field(f: Mapping[str, Any]) -> str:
-    text = f"{f['dds']} ← {f['jaus']}" if f.get("jaus") else str(f["dds"])
+def _field(f: Mapping[str, Any], direction: str) -> str:
+    """``target ← source``: the DDS member from the JAUS field, or the other way round."""
+    if not f.get("jaus"):
+        text = str(f["dds"])
+    elif direction == "dds->jaus":
+        text = f"{f['jaus']} ← {f['dds']}"
+    else:
+        text = f"{f['dds']} ← {f['jaus']}"
     return f"{text} ({f['note']})" if f.get("note") else text
 
 

@@ -17,7 +17,7 @@ from edge_vis import plugins
 from edge_vis.errors import ConfigError
 
 NAME = "send-image"
-HELP = "send an image file over UDT with resume; exit 0 when the receiver verified it"
+HELP = "send image files over UDT with resume; exit 0 when the receiver verified every one"
 
 _SUFFIX = {"": 1, "k": 10**3, "m": 10**6, "g": 10**9}
 
@@ -37,7 +37,8 @@ def parse_rate(text: str) -> int:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("file", type=Path, help="image file to send")
+    parser.add_argument("files", type=Path, nargs="+", metavar="FILE",
+                        help="image file(s) to send, one after the other on one connection")
     parser.add_argument("--to", required=True, metavar="HOST:PORT", help="receiver address")
     parser.add_argument("--vehicle", default="vehicle", metavar="ID",
                         help="vehicle id recorded in the manifest (default 'vehicle')")
@@ -120,35 +121,38 @@ def _atr(udt: Any, args: argparse.Namespace) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     udt = plugins.load(plugins.LINKS, "udt")
-    path: Path = args.file
-    if not path.is_file():
-        raise ConfigError(f"{path}: no such file")
+    for path in args.files:
+        if not path.is_file():
+            raise ConfigError(f"{path}: no such file")
     try:
         to = udt.parse_address(args.to)
     except ValueError as exc:
         raise ConfigError(f"--to: {exc}") from None
-    try:
-        manifest = udt.manifest_for_file(
-            path, vehicle_id=args.vehicle, image_format=args.image_format,
-            capture_time=args.capture_time, atr=_atr(udt, args),
-        )
-    except ValueError as exc:  # ManifestError: bad name, vehicle id, ATR values
-        raise ConfigError(str(exc)) from None
-    progress = Progress(path.name, sys.stderr)
-    started = time.monotonic()
-    result = udt.send_image(
-        path, to, manifest=manifest, max_rate_bps=args.max_rate, progress=progress,
-        give_up_after=args.give_up,
-    )
-    elapsed = time.monotonic() - started
-    if result.ok:
-        rate = manifest.size * 8 / elapsed / 1e6 if elapsed > 0 else 0.0
-        resumed = sum(1 for off in result.resumed_from if off)
-        print(f"sent {path.name} ({manifest.size} bytes, sha256 {manifest.sha256}) to "
-              f"{args.to} in {elapsed:.1f} s ({rate:.2f} Mbit/s, {result.attempts} "
-              f"connection(s), {resumed} resume(s)): receiver verified the hash")
-        return 0
-    code = result.code.name if result.code is not None else "FAILED"
-    print(f"edge-vis send-image: {path.name} not delivered ({code}): {result.reason}",
-          file=sys.stderr)
-    return 1
+    atr = _atr(udt, args)
+    failures = 0
+    with udt.BulkSender(to, max_rate_bps=args.max_rate, give_up_after=args.give_up) as sender:
+        for path in args.files:
+            try:
+                manifest = udt.manifest_for_file(
+                    path, vehicle_id=args.vehicle, image_format=args.image_format,
+                    capture_time=args.capture_time, atr=atr,
+                )
+            except ValueError as exc:  # ManifestError: bad name, vehicle id, ATR values
+                raise ConfigError(f"{path}: {exc}") from None
+            sender.progress = Progress(path.name, sys.stderr)
+            started = time.monotonic()
+            result = sender.send_file(path, manifest)
+            elapsed = time.monotonic() - started
+            if result.ok:
+                rate = manifest.size * 8 / elapsed / 1e6 if elapsed > 0 else 0.0
+                resumed = sum(1 for off in result.resumed_from if off)
+                print(f"sent {path.name} ({manifest.size} bytes, sha256 {manifest.sha256}) "
+                      f"to {args.to} in {elapsed:.1f} s ({rate:.2f} Mbit/s, "
+                      f"{result.attempts} connection attempt(s), {resumed} resume(s)): "
+                      "receiver verified the hash", flush=True)
+                continue
+            failures += 1
+            code = result.code.name if result.code is not None else "FAILED"
+            print(f"edge-vis send-image: {path.name} not delivered ({code}): {result.reason}",
+                  file=sys.stderr)
+    return 0 if failures == 0 else 1

@@ -65,7 +65,8 @@ async def _main(args: argparse.Namespace) -> int:
                     where += f" (link {ep.spec.pty_link})"
             print(f"{ep.name} {ep.spec.kind} {ep.spec.subsystem} {where}", flush=True)
         with contextlib.suppress(TimeoutError):
-            await asyncio.wait_for(stop.wait(), args.duration)
+            async with asyncio.timeout(args.duration):
+                await stop.wait()
         log.info("stopping the simulation")
     finally:
         for ep in sim.endpoints:

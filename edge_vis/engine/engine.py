@@ -293,6 +293,42 @@ class Engine:
         """The live state of ``vehicle_id`` (for tests and diagnostics; do not mutate)."""
         return self._by_id.get(vehicle_id)
 
+    def apply_profile(self, profile: RelayProfile, now: float) -> list[str]:
+        """Take a reloaded profile while vehicles run; return what could not be applied.
+
+        Report rates, event/command/control timing, authority and vehicle profiles reach
+        running vehicles: a subscription whose rate changes asks its provider again
+        (CreateEvent for the same query updates the event; a polled report is polled at
+        the new rate); control and command settings hold from the next request. The
+        caller keeps the relay's id, links, DDS and translators unchanged (see
+        :func:`edge_vis.reload.effective_profile`). A vehicle profile that would rename a
+        running vehicle is not applied (its DDS key would change under the operators).
+        """
+        self.profile = profile
+        not_applied: list[str] = []
+        defaults = {spec.report: spec.rate for _tr, spec in self.manager.wanted_reports()}
+        for vehicle in self.vehicles.values():
+            vp = profile.vehicle_by_subsystem(vehicle.subsystem)
+            if vp is not None and vp.vehicle_id != vehicle.vehicle_id:
+                not_applied.append(f"vehicle {vehicle.vehicle_id}: the profile now calls "
+                                   f"subsystem {vehicle.subsystem} {vp.vehicle_id!r}")
+            else:
+                vehicle.profile = vp
+            for sub in vehicle.subscriptions.values():
+                sub.profile = profile.events
+                rate = min(profile.report_rate(sub.report, defaults.get(sub.report, sub.rate),
+                                               vehicle.profile), 1092.0)
+                if rate != sub.rate:
+                    log.info("vehicle %s: %s at %g Hz (was %g)", vehicle.vehicle_id,
+                             sub.report, rate, sub.rate)
+                    self._send_requests(sub.provider, sub.set_rate(rate, now))
+            for slot in vehicle.commands.values():
+                slot.profile = profile.commands
+            for ctl in vehicle.controls.values():
+                ctl.profile = profile.control
+                ctl.authority = profile.authority
+        return not_applied
+
     # == start-up, discovery and identification ========================================
 
     def _start(self, now: float) -> None:

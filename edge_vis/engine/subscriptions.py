@@ -194,6 +194,18 @@ class Subscription:
         self._done()
         return []
 
+    def set_rate(self, rate: float, now: float) -> list[Request]:
+        """A new rate (profile reloaded): update an active event, re-time polling."""
+        self.rate = rate
+        if self.state is SubscriptionState.ACTIVE and not self.on_change:
+            self.attempts = 0
+            if self.stale_deadline is not None:
+                self.stale_deadline = now + self._stale_after()
+            return self._create(now, refresh=True)
+        if self.state is SubscriptionState.POLLING:
+            self.deadline = now + self._period()
+        return []
+
     def on_lost(self) -> None:
         """The provider went silent: its events are gone; start over when it returns."""
         self.state = SubscriptionState.NEW

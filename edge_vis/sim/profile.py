@@ -13,7 +13,7 @@ vehicle is ``name``, ``subsystem`` and ``link``::
     origin = { latitude = 36.6, longitude = -121.9 }
 
     [vehicles.faults]
-    dropout = { every = 60.0, duration = 5.0, reboot = true }
+    dropout = { every = 60.0, duration = 5.0, reboot = true }  # optional first = 10.0
     reject_events = ["QueryRangeSensorData"]  # or true for every CreateEvent
     refuse_control = false
     jts_example = false                       # ignore CreateEvent/QueryTimeout, INITIALIZE forever
@@ -45,6 +45,7 @@ class FaultSpec:
 
     dropout_every: float = 0.0
     dropout_duration: float = 0.0
+    dropout_first: float | None = None  # seconds after start; default: ``dropout_every``
     dropout_reboot: bool = False
     reject_events: frozenset[str] = frozenset()  # query names, or {"*"}
     refuse_control: bool = False
@@ -95,7 +96,7 @@ class VehicleSpec:
     def udp_address(self) -> tuple[str, int]:
         """The (ip, port) a UDP vehicle binds."""
         parts = urlsplit(self.link)
-        return parts.hostname or "127.0.0.1", parts.port or 3794
+        return parts.hostname or "127.0.0.1", parts.port if parts.port is not None else 3794
 
 
 @dataclass(frozen=True, slots=True)
@@ -141,15 +142,18 @@ def _faults(table: Any, path: str, problems: _Problems) -> FaultSpec:
         if key not in known:
             problems.add(f"{path}.{key}", f"unknown fault (known: {', '.join(sorted(known))})")
     every = duration = 0.0
+    first: float | None = None
     reboot = False
     dropout = table.get("dropout")
     if dropout is not None:
         if not isinstance(dropout, dict):
-            problems.add(f"{path}.dropout", "must be a table {every, duration, reboot}")
+            problems.add(f"{path}.dropout", "must be a table {every, duration, first, reboot}")
         else:
             every = _number(dropout, "every", 0.0, f"{path}.dropout", problems, low=0.1)
             duration = _number(dropout, "duration", 0.0, f"{path}.dropout", problems, low=0.0)
             reboot = bool(dropout.get("reboot", False))
+            if "first" in dropout:
+                first = _number(dropout, "first", 0.0, f"{path}.dropout", problems, low=0.0)
             if duration >= every:
                 problems.add(f"{path}.dropout", f"duration {duration} must be below every {every}")
     reject = table.get("reject_events", False)
@@ -166,6 +170,7 @@ def _faults(table: Any, path: str, problems: _Problems) -> FaultSpec:
         dropout_every=every,
         dropout_duration=duration,
         dropout_reboot=reboot,
+        dropout_first=first,
         reject_events=rejects,
         refuse_control=bool(table.get("refuse_control", False)),
         jts_example=bool(table.get("jts_example", False)),

@@ -109,8 +109,11 @@ class VehicleEndpoint:
             targets = [t for t in (deadline, frag_deadline, next_stats) if t is not None]
             delay = max(0.0, min(targets) - self._now())
             self._wake.clear()
+            # asyncio.timeout, not wait_for: 3.11's wait_for can swallow a cancellation
+            # that races with the event being set, and stop() would then wait forever
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._wake.wait(), delay)
+                async with asyncio.timeout(delay):
+                    await self._wake.wait()
             now = self._now()
             self._reassembler.expire(now)
             try:
@@ -372,13 +375,18 @@ class PtyVehicle(VehicleEndpoint):
             os.close(self._master)
             os.close(self._slave)
             self._master = self._slave = -1
+        # remove the link and path file only while they still name this run's pty: another
+        # simulator started since may have taken them over
         if self.spec.pty_link:
             link = Path(self.spec.pty_link)
-            if link.is_symlink():
-                link.unlink()
+            with contextlib.suppress(OSError):
+                if link.is_symlink() and os.readlink(link) == self.slave_path:
+                    link.unlink()
         if self.spec.pty_path_file:
-            with contextlib.suppress(FileNotFoundError):
-                Path(self.spec.pty_path_file).unlink()
+            path = Path(self.spec.pty_path_file)
+            with contextlib.suppress(OSError):
+                if path.read_text(encoding="utf-8").strip() == self.slave_path:
+                    path.unlink()
 
     def _readable(self) -> None:
         try:

@@ -127,7 +127,8 @@ class SimVehicle:
         self._physics_time = start
         self._init_done_at = start + spec.init_time
         faults = spec.faults
-        self._dropout_start = start + faults.dropout_every if faults.dropout_every else math.inf
+        first = faults.dropout_first if faults.dropout_first is not None else faults.dropout_every
+        self._dropout_start = start + first if faults.dropout_every else math.inf
         self._dropout_end = math.inf
         self.down = False
         self._next_malformed = (start + self.rng.expovariate(faults.malformed_rate)
@@ -141,6 +142,7 @@ class SimVehicle:
         self._image_cache: tuple[int, bytes] | None = None
         self._scan_cache: tuple[float, list[dict[str, Any]]] | None = None
         self.last_client: JausAddress | None = None
+        self._unsupported_seen: set[tuple[str, JausAddress]] = set()
 
     # -- the sans-I/O interface -----------------------------------------------------------
 
@@ -176,7 +178,10 @@ class SimVehicle:
                 out += self._answer(comp, source, message.name, message.fields)
         if not handled:
             self.counters["unsupported"] += 1
-            log.debug("%s: no component of %s handles %s", self.name, destination, message.name)
+            if (message.name, destination) not in self._unsupported_seen:
+                self._unsupported_seen.add((message.name, destination))
+                log.info("%s: ignoring %s to %s: no such component or service (reported once)",
+                         self.name, message.name, destination)
         out += self._every_change()
         return out
 
@@ -425,8 +430,10 @@ class SimVehicle:
     # -- events ---------------------------------------------------------------------------
 
     def _reject_event(self, comp: Component, source: JausAddress, request_id: int,
-                      code: int) -> list[Action]:
+                      code: int, what: str = "") -> list[Action]:
         self.counters["events_rejected"] += 1
+        log.info("%s: rejecting event request %d of %s on %s%s (code %d)", self.name,
+                 request_id, source, comp.address, f" for {what}" if what else "", code)
         return self._send(comp, source, "RejectEventRequest",
                           {"request_id": request_id, "response_code": code})
 
@@ -448,9 +455,9 @@ class SimVehicle:
             return self._reject_event(comp, source, request_id, INVALID_SETUP)
         entry = _QUERIES.get(query.name or "")
         if entry is None or not comp.offers(entry[0]):
-            return self._reject_event(comp, source, request_id, MESSAGE_UNSUPPORTED)
+            return self._reject_event(comp, source, request_id, MESSAGE_UNSUPPORTED, query.name)
         if self.spec.faults.rejects_event(query.name or ""):
-            return self._reject_event(comp, source, request_id, CONNECTION_REFUSED)
+            return self._reject_event(comp, source, request_id, CONNECTION_REFUSED, query.name)
         event_type = fields["event_type"]
         rate = fields["requested_periodic_rate"]
         if event_type == PERIODIC:
@@ -768,6 +775,47 @@ class SimVehicle:
                 "range_sensor_data_point_list": self._scan()}})
         return {"range_sensor_data_list": out}
 
+    def _report_range_sensor_capabilities(self, comp: Component,
+                                          fields: dict[str, Any]) -> dict[str, Any]:
+        return {"range_sensor_capabilities_list": [{
+            "sensor_id": 1, "sensor_name": "front lidar",
+            "supported_states": {"active": 1, "standby": 0, "off": 0},
+            "minimum_horizontal_field_of_view_start_angle": -math.pi / 2,
+            "maximum_horizontal_field_of_view_stop_angle": math.pi / 2,
+            "miniumum_update_rate": 1.0, "maximum_update_rate": 20.0,
+            "minimum_range": 0.1, "maximum_range": 80.0}]}
+
+    def _report_range_sensor_configuration(self, comp: Component,
+                                           fields: dict[str, Any]) -> dict[str, Any]:
+        return {"range_sensor_configuration_list": [{
+            "sensor_id": 1, "horizontal_field_of_view_start_angle": -math.pi / 2,
+            "horizontal_field_of_view_stop_angle": math.pi / 2, "update_rate": 10.0,
+            "minimum_range": 0.1, "maximum_range": 80.0, "sensor_state": 0}]}
+
+    def _report_visual_sensor_capabilities(self, comp: Component,
+                                           fields: dict[str, Any]) -> dict[str, Any]:
+        return {"visual_sensor_capabilities_list": [{
+            "sensor_id": 1, "sensor_name": "mast camera",
+            "supported_states": {"active": 1, "standby": 1, "off": 0},
+            "imaging_modes": {"color": 0, "greyscale": 1}}]}
+
+    def _report_visual_sensor_configuration(self, comp: Component,
+                                            fields: dict[str, Any]) -> dict[str, Any]:
+        return {"visual_sensor_configuration_list": [{
+            "sensor_id": 1, "sensor_state": 0, "imaging_mode": 1,
+            "horizontal_field_of_view": 1.0, "vertical_field_of_view": 0.75}]}
+
+    def _report_still_image_capabilities(self, comp: Component,
+                                         fields: dict[str, Any]) -> dict[str, Any]:
+        return {"still_image_sensor_list": [{
+            "sensor_id": 1, "supported_frame_sizes": {"qqvga_160x120": 1},
+            "supported_image_formats": {"png": 1}}]}
+
+    def _report_still_image_configuration(self, comp: Component,
+                                          fields: dict[str, Any]) -> dict[str, Any]:
+        return {"still_image_sensor_configuration_list": [{
+            "sensor_id": 1, "frame_size": 5, "still_image_format": 2}]}
+
     def still_image(self) -> bytes:
         """The current camera frame (a PNG; a new frame every second)."""
         number = int(self._physics_time)
@@ -967,6 +1015,20 @@ _QUERIES: dict[str, tuple[str, str, Builder]] = {
                              SimVehicle._report_range_sensor_data),
     "QueryStillImageData": (svc.STILL_IMAGE, "ReportStillImageData",
                             SimVehicle._report_still_image_data),
+    "QueryRangeSensorCapabilities": (svc.RANGE_SENSOR, "ReportRangeSensorCapabilities",
+                                     SimVehicle._report_range_sensor_capabilities),
+    "QueryRangeSensorConfiguration": (svc.RANGE_SENSOR, "ReportRangeSensorConfiguration",
+                                      SimVehicle._report_range_sensor_configuration),
+    "QueryVisualSensorCapabilities": (svc.VISUAL_SENSOR, "ReportVisualSensorCapabilities",
+                                      SimVehicle._report_visual_sensor_capabilities),
+    "QueryVisualSensorConfiguration": (svc.VISUAL_SENSOR, "ReportVisualSensorConfiguration",
+                                       SimVehicle._report_visual_sensor_configuration),
+    "QueryStillImageSensorCapabilities": (svc.STILL_IMAGE,
+                                          "ReportStillImageSensorCapabilities",
+                                          SimVehicle._report_still_image_capabilities),
+    "QueryStillImageSensorConfiguration": (svc.STILL_IMAGE,
+                                           "ReportStillImageSensorConfiguration",
+                                           SimVehicle._report_still_image_configuration),
     "QueryOceanEnvironment": (svc.OCEAN_ENVIRONMENT, "ReportOceanEnvironment",
                               SimVehicle._report_ocean_environment),
 }

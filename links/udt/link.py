@@ -19,13 +19,14 @@ import logging
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from edge_vis.errors import LinkError
 from links.udt.protocol import (
     DATA_CHUNK,
+    MAX_LANES,
     Accepted,
     Backoff,
     DataComplete,
@@ -48,6 +49,8 @@ log = logging.getLogger(__name__)
 
 POLL_MS = 250
 """Receive timeout on every socket, so threads notice ``stop()`` within this time."""
+MIN_LANE_BYTES = 1 << 20
+"""Smallest segment worth its own connection: a lane pays a UDT handshake and slow start."""
 SNDBUF_MIN = 256 * 1024
 SNDBUF_MAX = 12 * 1024 * 1024
 
@@ -207,7 +210,11 @@ class BulkSender:
         stop: threading.Event | None = None,
         progress: ProgressFn | None = None,
         stall_timeout: float = 10.0,
+        lanes: int = 1,
     ) -> None:
+        if not 1 <= lanes <= MAX_LANES:
+            raise ValueError(f"lanes must be 1..{MAX_LANES}")
+        self.lanes = lanes
         self.address = address
         self.max_rate_bps = max_rate_bps
         self.backoff = backoff or Backoff()
@@ -218,13 +225,69 @@ class BulkSender:
         self.stop = stop or threading.Event()
         self.progress = progress
         self.stall_timeout = stall_timeout
+        self._idle: tuple[Any, SenderConnection | None] = (None, None)
+        self._pending_events: list[Any] = []
 
     @property
     def target(self) -> str:
         return f"{self.address[0]}:{self.address[1]}"
 
     def send_file(self, path: str | Path, manifest: Manifest) -> TransferResult:
-        """Send ``path`` as described by ``manifest``; return once the receipt says so."""
+        """Send ``path`` as described by ``manifest``; return once the receipt says so.
+
+        With ``lanes`` > 1 and a file of at least ``MIN_LANE_BYTES`` per lane, the file
+        goes as that many segments on parallel connections (each with its share of the
+        rate budget), then the whole-file manifest asks for the verdict.
+        """
+        lanes = min(self.lanes, max(1, manifest.size // MIN_LANE_BYTES))
+        if lanes > 1 and manifest.segment is None:
+            return self._send_lanes(Path(path), manifest, lanes)
+        return self._send_one(Path(path), manifest)
+
+    def _send_lanes(self, path: Path, manifest: Manifest, lanes: int) -> TransferResult:
+        done = [0] * lanes
+        results: list[TransferResult | None] = [None] * lanes
+        lock = threading.Lock()
+
+        def lane_progress(index: int) -> ProgressFn:
+            def report(value: int, _total: int) -> None:
+                with lock:
+                    done[index] = value
+                    total = sum(done)
+                if self.progress:
+                    self.progress(total, manifest.size)
+            return report
+
+        def run(index: int) -> None:
+            with BulkSender(
+                self.address,
+                max_rate_bps=None if not self.max_rate_bps else self.max_rate_bps // lanes,
+                backoff=Backoff(self.backoff.initial, self.backoff.factor, self.backoff.maximum,
+                                self.backoff.jitter),
+                connect_timeout=self.connect_timeout, idle_timeout=self.idle_timeout,
+                give_up_after=self.give_up_after, retry_refusals=self.retry_refusals,
+                stop=self.stop, progress=lane_progress(index), stall_timeout=self.stall_timeout,
+            ) as lane:
+                results[index] = lane.send_file(path, replace(manifest, segment=(index, lanes)))
+
+        threads = [threading.Thread(target=run, args=(i,), name=f"udt-lane-{i}", daemon=True)
+                   for i in range(lanes)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        attempts = sum(r.attempts for r in results if r is not None)
+        offsets = tuple(o for r in results if r is not None for o in r.resumed_from)
+        for r in results:
+            if r is None or not r.ok:
+                reason = "lane did not finish" if r is None else r.reason
+                return TransferResult(False, reason, None if r is None else r.code, attempts,
+                                      offsets)
+        final = self._send_one(path, manifest)
+        return TransferResult(final.ok, final.reason, final.code, attempts + final.attempts,
+                              offsets + final.resumed_from)
+
+    def _send_one(self, path: Path, manifest: Manifest) -> TransferResult:
         attempts = 0
         offsets: list[int] = []
         last_progress = time.monotonic()
@@ -265,18 +328,59 @@ class BulkSender:
                     False, "stopped", Reason.SHUTDOWN, attempts, tuple(offsets)
                 )
 
+    def _open(self) -> tuple[Any, SenderConnection, bool]:
+        """The idle connection kept from the previous file, or a new one; True if reused."""
+        sock, conn = self._idle
+        self._idle = (None, None)
+        self._pending_events.clear()
+        if sock is not None and conn is not None and conn.state is State.IDLE:
+            if sock.status == udt4py().UDTSocket.Status.CONNECTED:
+                return sock, conn, True
+            _close(sock)
+        sock = _connect(self.address, self.connect_timeout, self.max_rate_bps)
+        return sock, SenderConnection(idle_timeout=self.idle_timeout), False
+
+    def close(self) -> None:
+        """Close the connection kept open between files (idempotent)."""
+        sock, _ = self._idle
+        self._idle = (None, None)
+        if sock is not None:
+            _close(sock)
+
+    def __enter__(self) -> BulkSender:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
     def _attempt(
         self, path: Path, manifest: Manifest, offsets: list[int]
     ) -> TransferResult | int | None:
-        """One connection. A result ends the transfer; an int is bytes reached before a drop."""
-        sock = _connect(self.address, self.connect_timeout, self.max_rate_bps)
-        conn = SenderConnection(idle_timeout=self.idle_timeout)
-        watchdog = _Watchdog(sock, self.stall_timeout)
+        """One connection. A result ends the transfer; an int is bytes reached before a drop.
+
+        A connection that ends a transfer cleanly stays open for the next file: UDT's
+        slow start then costs once per batch rather than once per file.
+        """
+        sock, conn, reused = self._open()
+        keep = False
         try:
-            conn.send_manifest(manifest, time.monotonic())
-            _send_all(sock, conn.data_to_send())
-            answer = self._next_event(sock, conn)
+            try:
+                conn.send_manifest(manifest, time.monotonic())
+                _send_all(sock, conn.data_to_send())
+                answer = self._next_event(sock, conn)
+            except ConnectionLost:
+                if not reused:
+                    raise
+                # The kept connection died while idle (receiver restarted): a fresh one.
+                _close(sock)
+                sock = _connect(self.address, self.connect_timeout, self.max_rate_bps)
+                conn = SenderConnection(idle_timeout=self.idle_timeout)
+                conn.send_manifest(manifest, time.monotonic())
+                _send_all(sock, conn.data_to_send())
+                answer = self._next_event(sock, conn)
+            watchdog = _Watchdog(sock, self.stall_timeout)
             if isinstance(answer, Refused):
+                keep = True
                 if answer.code in self.retry_refusals:
                     log.info("%s refused %s for now: %s", self.target, manifest.name, answer.reason)
                     return None
@@ -294,20 +398,25 @@ class BulkSender:
                 return self._reason_after_drop(sock, conn)
             receipt = self._next_event(sock, conn, watchdog=watchdog)
             if isinstance(receipt, ReceiptReceived):
+                keep = True
                 if self.progress and receipt.ok:
-                    self.progress(manifest.size, manifest.size)
+                    self.progress(manifest.length, manifest.length)
                 return TransferResult(receipt.ok, receipt.reason or "SHA-256 verified",
                                       None if receipt.ok else Reason.HASH_MISMATCH)
             return self._ended(receipt)
         finally:
-            sock.close()
+            if keep and conn.state is State.IDLE and not self.stop.is_set():
+                self._idle = (sock, conn)
+            else:
+                _close(sock)
 
     def _stream(self, sock: Any, conn: SenderConnection, path: Path, offset: int,
                 watchdog: _Watchdog) -> None:
-        assert conn.manifest is not None
-        total = conn.manifest.size
+        if conn.state is not State.SENDING or conn.manifest is None:
+            return  # nothing to send: the receiver holds everything
+        total = conn.manifest.length
         with open(path, "rb") as fh:
-            fh.seek(offset)
+            fh.seek(conn.manifest.span()[0] + offset)
             while conn.state is State.SENDING:
                 if self.stop.is_set():
                     raise ConnectionLost("stopped")
@@ -345,6 +454,8 @@ class BulkSender:
 
     def _next_event(self, sock: Any, conn: SenderConnection, limit: float | None = None,
                     watchdog: _Watchdog | None = None) -> Any:
+        if self._pending_events:
+            return self._pending_events.pop(0)
         udt = udt4py()
         buf = bytearray(64 * 1024)
         started = time.monotonic()
@@ -365,12 +476,14 @@ class BulkSender:
                 if pending:  # our data is still draining: the link is slow, not dead
                     conn.touch(now)
                     if self.progress and conn.manifest is not None:
-                        self.progress(conn.offset - pending, conn.manifest.size)
+                        self.progress(conn.offset - pending, conn.manifest.length)
                 events = conn.handle_timer(now)
             out = conn.data_to_send()
             if out:
                 _send_all(sock, out)
             if events:
+                # ACCEPT and RECEIPT may arrive in one read (nothing left to send).
+                self._pending_events.extend(events[1:])
                 return events[0]
             if limit is not None and now - started > limit:
                 raise ConnectionLost("no answer")
@@ -409,7 +522,7 @@ class BulkReceiver:
         self._listener: Any = None
         self._threads: list[threading.Thread] = []
         self._conns: dict[int, Any] = {}
-        self._owners: dict[str, Any] = {}  # transfer id -> socket receiving it
+        self._owners: dict[tuple[str, int | None], Any] = {}  # claim -> socket holding it
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._local = threading.local()
@@ -514,7 +627,7 @@ class BulkReceiver:
         sock.UDT_RCVTIMEO = POLL_MS
         conn = ReceiverConnection(idle_timeout=self.idle_timeout)
         buf = bytearray(DATA_CHUNK)
-        current: str | None = None
+        current: Manifest | None = None
         try:
             while not self._stop.is_set():
                 try:
@@ -542,35 +655,50 @@ class BulkReceiver:
             log.info("connection from %s lost: %s", peer, exc)
         finally:
             if current is not None:
-                with self._lock:
-                    if self._owners.get(current) is sock:
-                        del self._owners[current]
-                self.spool.release(current)
-                entry = self.spool.entry(current)
+                self._release(current, sock)
+                entry = self.spool.entry(current.transfer_id)
                 if entry is not None and entry.state.value == "partial":
-                    self._status(entry.manifest, "interrupted", entry.durable)
+                    self._status(current, "interrupted", entry.held)
             with self._lock:
                 self._conns.pop(id(sock), None)
             _close(sock)
 
-    def _take_over(self, tid: str, peer: str) -> None:
+    @staticmethod
+    def _claim_key(m: Manifest) -> tuple[str, int | None]:
+        return m.transfer_id, None if m.segment is None else m.segment[0]
+
+    def _release(self, m: Manifest, sock: Any) -> None:
+        with self._lock:
+            if self._owners.get(self._claim_key(m)) is sock:
+                del self._owners[self._claim_key(m)]
+        self.spool.release(m)
+
+    def _take_over(self, m: Manifest, peer: str) -> None:
         """A sender reconnected while its old connection looks alive here: the old one is
         dead (the sender would not reconnect otherwise), so close it and take its place."""
+        key = self._claim_key(m)
         with self._lock:
-            old = self._owners.get(tid)
-        if old is None or old is self._local.sock or not self.spool.is_active(tid):
+            old = self._owners.get(key)
+        if old is None or old is self._local.sock:
             return
-        log.info("transfer %s: new connection from %s replaces a stale one", tid, peer)
+        log.info("transfer %s: new connection from %s replaces a stale one", m.transfer_id, peer)
         _close(old)
         deadline = time.monotonic() + 2.0
-        while self.spool.is_active(tid) and time.monotonic() < deadline:
+        while time.monotonic() < deadline:
+            with self._lock:
+                if key not in self._owners:
+                    return
             time.sleep(0.01)
 
-    def _handle(self, conn: ReceiverConnection, event: Any, peer: str, current: str | None
-                ) -> str | None:
+    def _held(self, m: Manifest) -> int:
+        entry = self.spool.entry(m.transfer_id)
+        return m.size if entry is None else min(m.size, entry.held)
+
+    def _handle(self, conn: ReceiverConnection, event: Any, peer: str,
+                current: Manifest | None) -> Manifest | None:
         if isinstance(event, ManifestReceived):
             m = event.manifest
-            self._take_over(m.transfer_id, peer)
+            self._take_over(m, peer)
             try:
                 offset = self.spool.begin(m)
             except SpoolRefusal as exc:
@@ -580,33 +708,39 @@ class BulkReceiver:
                 self._status(m, "refused", 0, exc.reason)
                 return None
             with self._lock:
-                self._owners[m.transfer_id] = self._local.sock
-            log.info("%s %s (%d bytes) from %s at offset %d",
-                     "resuming" if offset else "receiving", m.name, m.size, peer, offset)
-            self._status(m, "resumed" if offset else "started", offset)
+                self._owners[self._claim_key(m)] = self._local.sock
+            lane = "" if m.segment is None else f" lane {m.segment[0] + 1}/{m.segment[1]}"
+            log.info("%s %s%s (%d bytes) from %s at offset %d",
+                     "resuming" if offset else "receiving", m.name, lane, m.length, peer, offset)
+            self._status(m, "resumed" if offset else "started", self._held(m))
             for follow in conn.accept(offset):
-                self._handle(conn, follow, peer, m.transfer_id)
-            return m.transfer_id if conn.state is not State.AWAIT_MANIFEST else None
+                self._handle(conn, follow, peer, m)
+            return m if conn.state is not State.AWAIT_MANIFEST else None
         if isinstance(event, DataReceived):
+            assert current is not None
             try:
-                self.spool.write(event.transfer_id, event.offset, event.data)
+                self.spool.write(current, event.offset, event.data)
             except SpoolRefusal as exc:
                 log.error("storage failure for %s: %s", event.transfer_id, exc.reason)
                 conn.close_with_error(exc.code, exc.reason)
             return current
         if isinstance(event, DataComplete):
             m = event.manifest
+            sock = self._local.sock
+            if m.segment is not None:
+                self._release(m, sock)
+                conn.send_receipt(True, "", f"segment {m.segment[0] + 1}/{m.segment[1]} stored")
+                self._status(m, "active", self._held(m))
+                return None
             try:
-                path = self.spool.complete(m.transfer_id)
+                path = self.spool.complete(m)
             except SpoolRefusal as exc:
                 log.warning("%s from %s failed verification: %s", m.name, peer, exc.reason)
+                self._release(m, sock)
                 conn.send_receipt(False, "", exc.reason)
                 self._status(m, "failed", m.size, exc.reason)
-                self.spool.release(m.transfer_id)
                 return None
-            self.spool.release(m.transfer_id)
-            with self._lock:
-                self._owners.pop(m.transfer_id, None)
+            self._release(m, sock)
             conn.send_receipt(True, m.sha256)
             self.counters["verified"] += 1
             log.info("verified %s from %s (sha256 %s...)", m.name, m.vehicle_id, m.sha256[:12])
@@ -648,6 +782,7 @@ class Forwarder:
         max_rate_bps: int | None = None,
         backoff: Backoff | None = None,
         connect_timeout: float = 1.0,
+        lanes: int = 1,
     ) -> None:
         self.spool = spool
         self.target = target
@@ -659,7 +794,7 @@ class Forwarder:
             backoff=backoff or Backoff(initial=0.2, maximum=5.0),
             connect_timeout=connect_timeout, give_up_after=None,
             retry_refusals=frozenset({Reason.BUSY, Reason.QUOTA, Reason.STORAGE}),
-            stop=self._stop,
+            stop=self._stop, lanes=lanes,
         )
         self._thread: threading.Thread | None = None
         self.counters = {"forwarded": 0, "rejected": 0}
@@ -679,6 +814,7 @@ class Forwarder:
         self._wake.set()
         if self._thread is not None:
             self._thread.join(timeout=5)
+        self._sender.close()
 
     def _run(self) -> None:
         while not self._stop.is_set():

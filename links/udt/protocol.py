@@ -14,8 +14,18 @@ with the byte offset it already holds for that transfer id, or REFUSE with a rea
 and text. The sender then streams DATA frames from that offset up to the declared size;
 the receiver verifies the hash and answers with a RECEIPT (ok, or failed with a reason).
 If the connection drops, the sender reconnects and sends the same manifest: the answer
-carries the new offset, so only the rest travels. Either side may send ERROR before
-closing when the other broke a rule (garbage, a frame out of place, data past the size).
+carries the new offset, so only the rest travels.
+
+Lanes. UDT's congestion control reads random radio loss as congestion and settles far
+below the link rate (about 2 Mbit/s of 10 at 2 % loss); independent connections each
+settle there, so a file may be sent as ``segment = [i, n]`` manifests on ``n`` parallel
+connections. A segment manifest describes the same file; offsets, DATA and ACCEPT are
+relative to the segment (:meth:`Manifest.span`) and its RECEIPT only says "stored". The
+sender then sends the plain manifest, which the receiver answers with ACCEPT(size), and
+the RECEIPT of that one carries the SHA-256 verdict on the whole file.
+
+Either side may send ERROR before closing when the other broke a rule (garbage, a frame
+out of place, data past the size).
 
 Sender states (``SenderConnection``)::
 
@@ -44,7 +54,7 @@ import math
 import random
 import re
 import struct
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from enum import Enum, IntEnum
 from typing import Any
 
@@ -55,6 +65,8 @@ MAX_FILE_SIZE = 1 << 40
 """Largest file a manifest may declare (1 TiB)."""
 DATA_CHUNK = 1 << 20
 """Largest DATA payload, and the size senders use."""
+MAX_LANES = 16
+SEGMENT_ALIGN = 64 * 1024
 
 
 class FrameType(IntEnum):
@@ -188,11 +200,33 @@ class Manifest:
     image_format: str
     capture_time: float
     atr: AtrMetadata | None = None
+    segment: tuple[int, int] | None = None
+    """``(index, count)`` when this manifest covers one lane's segment of the file."""
+
+    def span(self) -> tuple[int, int]:
+        """Byte range ``[start, end)`` of the file this manifest's data covers."""
+        if self.segment is None:
+            return 0, self.size
+        return segment_bounds(self.size, *self.segment)
+
+    @property
+    def length(self) -> int:
+        """Bytes of data this manifest's transfer carries (the whole size, or a segment)."""
+        start, end = self.span()
+        return end - start
+
+    def whole(self) -> Manifest:
+        """The same file without a segment."""
+        return replace(self, segment=None)
 
     def to_json(self) -> bytes:
         data = asdict(self)
         if self.atr is None:
             del data["atr"]
+        if self.segment is None:
+            del data["segment"]
+        else:
+            data["segment"] = list(self.segment)
         return json.dumps(data, separators=(",", ":"), allow_nan=False).encode("utf-8")
 
     def to_dict(self) -> dict[str, Any]:
@@ -216,12 +250,12 @@ class Manifest:
             raise ManifestError("manifest must be a JSON object")
         known = {
             "transfer_id", "vehicle_id", "name", "size", "sha256", "image_format",
-            "capture_time", "atr",
+            "capture_time", "atr", "segment",
         }
         unknown = sorted(set(data) - known)
         if unknown:
             raise ManifestError(f"manifest has unknown field(s) {', '.join(unknown)}")
-        for key in sorted(known - {"atr"}):
+        for key in sorted(known - {"atr", "segment"}):
             if key not in data:
                 raise ManifestError(f"manifest.{key} is missing")
         tid = data["transfer_id"]
@@ -245,7 +279,8 @@ class Manifest:
             raise ManifestError("manifest.image_format must be a short lower-case name")
         ctime = _number(data["capture_time"], "manifest.capture_time")
         atr = _atr(data.get("atr"))
-        return cls(tid, vid, name, size, digest, fmt, ctime, atr)
+        segment = _segment(data.get("segment"))
+        return cls(tid, vid, name, size, digest, fmt, ctime, atr, segment)
 
 
 def _number(value: object, path: str, lo: float = -math.inf, hi: float = math.inf) -> float:
@@ -254,6 +289,24 @@ def _number(value: object, path: str, lo: float = -math.inf, hi: float = math.in
     if not lo <= value <= hi:
         raise ManifestError(f"{path} must be within {lo}..{hi}")
     return float(value)
+
+
+def _segment(value: object) -> tuple[int, int] | None:
+    if value is None:
+        return None
+    if (not isinstance(value, list) or len(value) != 2
+            or not all(isinstance(v, int) and not isinstance(v, bool) for v in value)
+            or not 1 <= value[1] <= MAX_LANES or not 0 <= value[0] < value[1]):
+        raise ManifestError(f"manifest.segment must be [index, count] with count 1..{MAX_LANES}")
+    return value[0], value[1]
+
+
+def segment_bounds(size: int, index: int, count: int) -> tuple[int, int]:
+    """``[start, end)`` of segment ``index`` of ``count`` (64 KiB-aligned, last one short)."""
+    step = -(-size // count)
+    step = -(-step // SEGMENT_ALIGN) * SEGMENT_ALIGN
+    start = min(size, index * step)
+    return start, min(size, start + step)
 
 
 def _atr(value: object) -> AtrMetadata | None:
@@ -585,15 +638,15 @@ class ReceiverConnection(_Base):
         if ftype is FrameType.DATA and self.state is State.RECEIVING:
             assert self.manifest is not None
             end = self.offset + len(payload)
-            if end > self.manifest.size:
+            if end > self.manifest.length:
                 raise _Garbage(
-                    f"data runs past the declared size: manifest says {self.manifest.size} "
+                    f"data runs past the declared size: manifest says {self.manifest.length} "
                     f"bytes, received at least {end}",
                     Reason.SIZE_MISMATCH,
                 )
             event = DataReceived(self.manifest.transfer_id, self.offset, payload)
             self.offset = end
-            if end == self.manifest.size:
+            if end == self.manifest.length:
                 self.state = State.VERIFYING
                 return [event, DataComplete(self.manifest)]
             return [event]
@@ -603,11 +656,11 @@ class ReceiverConnection(_Base):
         """Tell the sender to go on from ``offset``; ``DataComplete`` if nothing is missing."""
         if self.state is not State.DECIDING or self.manifest is None:
             raise BulkProtocolError(f"accept() in state {self.state.value}")
-        if not 0 <= offset <= self.manifest.size:
-            raise BulkProtocolError(f"offset {offset} outside 0..{self.manifest.size}")
+        if not 0 <= offset <= self.manifest.length:
+            raise BulkProtocolError(f"offset {offset} outside 0..{self.manifest.length}")
         self._out.append(encode_frame(FrameType.ACCEPT, struct.pack(">Q", offset)))
         self.offset = offset
-        if offset == self.manifest.size:
+        if offset == self.manifest.length:
             self.state = State.VERIFYING
             return [DataComplete(self.manifest)]
         self.state = State.RECEIVING
@@ -658,16 +711,16 @@ class SenderConnection(_Base):
         self._last_activity = now
         if self.state is not State.SENDING or self.manifest is None:
             raise BulkProtocolError(f"send_data() in state {self.state.value}")
-        if self.offset + len(data) > self.manifest.size:
+        if self.offset + len(data) > self.manifest.length:
             raise BulkProtocolError("data past the size declared in the manifest")
         self._out.append(encode_frame(FrameType.DATA, data))
         self.offset += len(data)
-        if self.offset == self.manifest.size:
+        if self.offset == self.manifest.length:
             self.state = State.AWAIT_RECEIPT
 
     @property
     def remaining(self) -> int:
-        return 0 if self.manifest is None else self.manifest.size - self.offset
+        return 0 if self.manifest is None else self.manifest.length - self.offset
 
     def _frame(self, ftype: FrameType, payload: bytes) -> list[Event]:
         assert ftype is not FrameType.ERROR
@@ -676,13 +729,13 @@ class SenderConnection(_Base):
         tid = self.manifest.transfer_id
         if ftype is FrameType.ACCEPT and self.state is State.AWAIT_ANSWER:
             (offset,) = struct.unpack(">Q", payload)
-            if offset > self.manifest.size:
+            if offset > self.manifest.length:
                 raise _Garbage(
-                    f"receiver offset {offset} beyond the file size {self.manifest.size}",
+                    f"receiver offset {offset} beyond the data size {self.manifest.length}",
                     Reason.SIZE_MISMATCH,
                 )
             self.offset = offset
-            self.state = State.SENDING if offset < self.manifest.size else State.AWAIT_RECEIPT
+            self.state = State.SENDING if offset < self.manifest.length else State.AWAIT_RECEIPT
             return [Accepted(tid, offset)]
         if ftype is FrameType.REFUSE and self.state is State.AWAIT_ANSWER:
             (code,) = struct.unpack_from(">H", payload)

@@ -82,14 +82,16 @@ def send_image(
     manifest: Manifest | None = None,
     stop: threading.Event | None = None,
     stall_timeout: float = 10.0,
+    lanes: int = 1,
 ) -> TransferResult:
     """Send one file and wait for the receipt; ``result.ok`` only if the hash was confirmed."""
     m = manifest or manifest_for_file(path, vehicle_id=vehicle_id)
-    sender = BulkSender(
+    with BulkSender(
         _address(to), max_rate_bps=max_rate_bps, progress=progress,
         give_up_after=give_up_after, backoff=backoff, stop=stop, stall_timeout=stall_timeout,
-    )
-    return sender.send_file(path, m)
+        lanes=lanes,
+    ) as sender:
+        return sender.send_file(path, m)
 
 
 class ImageService:
@@ -113,6 +115,7 @@ class ImageService:
         max_rate_bps: int | None = None,
         idle_timeout: float = 30.0,
         forward_backoff: Backoff | None = None,
+        forward_lanes: int = 1,
     ) -> None:
         self.out_dir = Path(out_dir)
         targets = [_address(t) for t in forward]
@@ -127,7 +130,8 @@ class ImageService:
             idle_timeout=idle_timeout,
         )
         self.forwarders = [
-            Forwarder(self.spool, t, max_rate_bps=max_rate_bps, backoff=forward_backoff)
+            Forwarder(self.spool, t, max_rate_bps=max_rate_bps, backoff=forward_backoff,
+                      lanes=forward_lanes)
             for t in targets
         ]
         self._rates: dict[str, tuple[float, int]] = {}

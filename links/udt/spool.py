@@ -33,12 +33,12 @@ import shutil
 import threading
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from pathlib import Path
 from typing import IO, Any
 
-from links.udt.protocol import Manifest, ManifestError, Reason
+from links.udt.protocol import Manifest, ManifestError, Reason, segment_bounds
 
 log = logging.getLogger(__name__)
 
@@ -64,18 +64,52 @@ class EntryState(Enum):
 
 
 @dataclass
-class Entry:
-    """One transfer the spool knows about."""
+class Claim:
+    """One connection's hold on a transfer (the whole file, or one lane's segment)."""
 
-    manifest: Manifest
-    state: EntryState = EntryState.PARTIAL
-    durable: int = 0
-    written: int = 0
-    forwarded: set[str] = field(default_factory=set)
-    delivered: str | None = None
-    handle: IO[bytes] | None = None
+    segment: int | None
+    handle: IO[bytes]
+    position: int
+    touched: set[int] = field(default_factory=set)
     unsynced: int = 0
     synced_at: float = 0.0
+
+
+@dataclass
+class Entry:
+    """One transfer the spool knows about.
+
+    ``durable[i]`` counts the bytes of segment ``i`` (from its start) that are fsync'd and
+    journalled; ``written[i]`` those written so far. A transfer sent on one connection has
+    one segment, the whole file.
+    """
+
+    manifest: Manifest
+    segments: int = 1
+    state: EntryState = EntryState.PARTIAL
+    durable: list[int] = field(default_factory=lambda: [0])
+    written: list[int] = field(default_factory=lambda: [0])
+    forwarded: set[str] = field(default_factory=set)
+    delivered: str | None = None
+    claims: dict[int | None, Claim] = field(default_factory=dict)
+
+    def bounds(self, index: int) -> tuple[int, int]:
+        return segment_bounds(self.manifest.size, index, self.segments)
+
+    def prefix(self) -> int:
+        """Durable bytes held contiguously from the start of the file."""
+        total = 0
+        for i in range(self.segments):
+            start, end = self.bounds(i)
+            total = start + self.durable[i]
+            if start + self.durable[i] < end:
+                break
+        return total if self.segments > 1 else self.durable[0]
+
+    @property
+    def held(self) -> int:
+        """Durable bytes held (sum over segments)."""
+        return sum(self.durable)
 
 
 def _human(n: float) -> str:
@@ -112,7 +146,6 @@ class Spool:
         self.sync_interval = sync_interval
         self._lock = threading.RLock()
         self._entries: dict[str, Entry] = {}
-        self._active: set[str] = set()
         self.counters = {"torn_journal_lines": 0, "refused": 0, "verified": 0, "failed": 0}
         (self.root / "partial").mkdir(parents=True, exist_ok=True)
         (self.root / "ready").mkdir(parents=True, exist_ok=True)
@@ -136,21 +169,27 @@ class Spool:
                 try:
                     rec = json.loads(line)
                     self._apply(rec)
-                except (ValueError, KeyError, TypeError, ManifestError):
+                except (ValueError, KeyError, TypeError, IndexError, ManifestError):
                     self.counters["torn_journal_lines"] += 1
                     log.warning("spool %s: skipped an unreadable journal line", self.root)
         for tid, entry in list(self._entries.items()):
             if entry.state is EntryState.PARTIAL:
                 part = self._part(tid)
                 have = part.stat().st_size if part.exists() else 0
-                keep = min(have, entry.durable)
-                if have != keep or not part.exists():
-                    with open(part, "ab") as fh:
-                        fh.truncate(keep)
-                entry.durable = entry.written = keep
+                if entry.segments == 1:
+                    # Bytes past the journalled length may be torn: cut them off.
+                    keep = min(have, entry.durable[0])
+                    if have != keep or not part.exists():
+                        with open(part, "ab") as fh:
+                            fh.truncate(keep)
+                    entry.durable[0] = keep
+                elif not part.exists():
+                    part.write_bytes(b"")
+                    entry.durable = [0] * entry.segments
+                entry.written = list(entry.durable)
                 log.info(
-                    "spool %s: resuming %s (%s) at %d of %d bytes", self.root, tid,
-                    entry.manifest.name, keep, entry.manifest.size,
+                    "spool %s: resuming %s (%s) with %d of %d bytes", self.root, tid,
+                    entry.manifest.name, entry.held, entry.manifest.size,
                 )
             elif entry.state is EntryState.VERIFIED and not self._ready(tid).exists():
                 log.error("spool %s: verified file for %s is missing", self.root, tid)
@@ -160,16 +199,16 @@ class Spool:
         op = rec["op"]
         if op == "begin":
             m = Manifest.from_mapping(rec["m"])
-            self._entries[m.transfer_id] = Entry(m)
+            k = int(rec.get("segments", 1))
+            self._entries[m.transfer_id] = Entry(m, k, durable=[0] * k, written=[0] * k)
             return
         entry = self._entries.get(rec["id"])
         if entry is None:
             return
         if op == "durable":
-            entry.durable = int(rec["n"])
+            entry.durable[int(rec.get("seg", 0))] = int(rec["n"])
         elif op == "verified":
             entry.state = EntryState.VERIFIED
-            entry.durable = entry.manifest.size
         elif op == "forwarded":
             entry.forwarded.add(str(rec["to"]))
         elif op == "delivered":
@@ -187,9 +226,12 @@ class Spool:
             del self._entries[old.manifest.transfer_id]
         with open(tmp, "w", encoding="utf-8") as fh:
             for tid, e in self._entries.items():
-                recs: list[dict[str, Any]] = [{"op": "begin", "m": e.manifest.to_dict()}]
+                recs: list[dict[str, Any]] = [
+                    {"op": "begin", "m": e.manifest.to_dict(), "segments": e.segments}
+                ]
                 if e.state is EntryState.PARTIAL:
-                    recs.append({"op": "durable", "id": tid, "n": e.durable})
+                    recs += [{"op": "durable", "id": tid, "seg": i, "n": n}
+                             for i, n in enumerate(e.durable)]
                 else:
                     recs.append({"op": "verified", "id": tid})
                 recs += [{"op": "forwarded", "id": tid, "to": t} for t in sorted(e.forwarded)]
@@ -219,9 +261,10 @@ class Spool:
             )
 
     def is_active(self, tid: str) -> bool:
-        """Whether a connection currently holds the claim on ``tid``."""
+        """Whether a connection currently holds a claim on ``tid``."""
         with self._lock:
-            return tid in self._active
+            entry = self._entries.get(tid)
+            return entry is not None and bool(entry.claims)
 
     def entry(self, tid: str) -> Entry | None:
         with self._lock:
@@ -230,37 +273,54 @@ class Spool:
     # ------------------------------------------------------------------ receiving
 
     def begin(self, manifest: Manifest) -> int:
-        """Claim ``manifest`` for one connection; return the byte offset already held.
+        """Claim ``manifest`` (a whole file or one lane's segment) for one connection.
 
-        Raises :class:`SpoolRefusal` when the transfer is already being received on another
-        connection (BUSY), conflicts with a known transfer id (BAD_MANIFEST) or does not fit
-        the quota or the disk (QUOTA / STORAGE).
+        Returns the offset already held, relative to the manifest's span. Raises
+        :class:`SpoolRefusal` when the claim is taken by another connection (BUSY),
+        conflicts with what the spool knows of that transfer id (BAD_MANIFEST) or does not
+        fit the quota or the disk (QUOTA / STORAGE).
         """
         tid = manifest.transfer_id
+        base = manifest.whole()
+        seg = manifest.segment
         with self._lock:
-            if tid in self._active:
-                raise self._refuse(Reason.BUSY, f"transfer {tid} is in progress on another link")
             entry = self._entries.get(tid)
-            if entry is not None and entry.manifest != manifest:
+            if entry is not None and entry.manifest != base:
                 raise self._refuse(
                     Reason.BAD_MANIFEST,
                     f"transfer id {tid} is already in use with a different manifest",
                 )
+            if entry is not None and seg is not None and seg[1] != entry.segments:
+                raise self._refuse(
+                    Reason.BAD_MANIFEST,
+                    f"transfer {tid} is being received in {entry.segments} lane(s), "
+                    f"not {seg[1]}",
+                )
             if entry is None:
-                self._check_space(manifest)
-                entry = Entry(manifest)
+                self._check_space(base)
+                k = 1 if seg is None else seg[1]
+                entry = Entry(base, k, durable=[0] * k, written=[0] * k)
                 self._part(tid).write_bytes(b"")
                 self._entries[tid] = entry
-                self._append({"op": "begin", "m": manifest.to_dict()})
-            self._active.add(tid)
-            if entry.state is EntryState.PARTIAL:
-                entry.handle = open(self._part(tid), "r+b")  # noqa: SIM115
-                entry.handle.seek(entry.durable)
-                entry.handle.truncate(entry.durable)
-                entry.synced_at = time.monotonic()
-                entry.written = entry.durable
-                return entry.durable
-            return manifest.size
+                self._append({"op": "begin", "m": base.to_dict(), "segments": k})
+            key = None if seg is None else seg[0]
+            if key in entry.claims or (entry.claims and (key is None or None in entry.claims)):
+                raise self._refuse(Reason.BUSY, f"transfer {tid} is in progress on another link")
+            if entry.state is not EntryState.PARTIAL:
+                return manifest.length
+            start, _ = manifest.span()
+            if seg is None:
+                held = entry.prefix()
+            else:
+                held = entry.durable[seg[0]]
+            handle = open(self._part(tid), "r+b")  # noqa: SIM115
+            handle.seek(start + held)
+            if entry.segments == 1:
+                handle.truncate(held)
+            for i in range(entry.segments):
+                entry.written[i] = entry.durable[i]
+            entry.claims[key] = Claim(key, handle, start + held, synced_at=time.monotonic())
+            return held
 
     def _check_space(self, manifest: Manifest) -> None:
         reserved = self.reserved_bytes()
@@ -284,58 +344,93 @@ class Spool:
         self.counters["refused"] += 1
         return SpoolRefusal(code, reason)
 
-    def write(self, tid: str, offset: int, data: bytes) -> None:
-        """Store ``data`` at ``offset`` (which must be where the previous write ended)."""
-        entry = self._entries[tid]
-        if entry.handle is None or offset != entry.written:
-            raise SpoolRefusal(Reason.STORAGE, f"write at {offset}, expected {entry.written}")
+    @staticmethod
+    def _key(m: Manifest | str) -> tuple[str, int | None]:
+        if isinstance(m, str):
+            return m, None
+        return m.transfer_id, None if m.segment is None else m.segment[0]
+
+    def _claim(self, m: Manifest | str) -> tuple[Entry, Claim]:
+        tid, key = self._key(m)
+        entry = self._entries.get(tid)
+        claim = None if entry is None else entry.claims.get(key)
+        if entry is None or claim is None:
+            raise SpoolRefusal(Reason.STORAGE, f"no claim on transfer {tid}")
+        return entry, claim
+
+    def write(self, m: Manifest | str, offset: int, data: bytes) -> None:
+        """Store ``data`` at ``offset`` of the claim's span (where the last write ended).
+
+        ``m`` is the manifest the connection announced, or a transfer id for a whole file.
+        """
+        with self._lock:
+            entry, claim = self._claim(m)
+        start = 0 if isinstance(m, str) else m.span()[0]
+        at = start + offset
+        if at != claim.position:
+            raise SpoolRefusal(Reason.STORAGE, f"write at {at}, expected {claim.position}")
         try:
-            entry.handle.write(data)
+            claim.handle.write(data)
         except OSError as exc:
             raise SpoolRefusal(Reason.STORAGE, f"cannot write spool file: {exc}") from exc
-        entry.written += len(data)
-        entry.unsynced += len(data)
-        if (entry.unsynced >= self.sync_bytes
-                or time.monotonic() - entry.synced_at >= self.sync_interval):
-            self.sync(tid)
-
-    def sync(self, tid: str) -> None:
-        """Make the received bytes durable and record how many in the journal."""
+        end = at + len(data)
+        claim.position = end
         with self._lock:
-            entry = self._entries.get(tid)
-            if entry is None or entry.handle is None:
+            for i in range(entry.segments):
+                s0, s1 = entry.bounds(i)
+                # Extend segment i if this write overlaps it and joins what it holds.
+                if at < s1 and end > s0 and at <= s0 + entry.written[i] < end:
+                    entry.written[i] = min(s1, end) - s0
+                    claim.touched.add(i)
+        claim.unsynced += len(data)
+        if (claim.unsynced >= self.sync_bytes
+                or time.monotonic() - claim.synced_at >= self.sync_interval):
+            self.sync(m)
+
+    def sync(self, m: Manifest | str) -> None:
+        """Make the claim's received bytes durable and record how many in the journal."""
+        with self._lock:
+            try:
+                entry, claim = self._claim(m)
+            except SpoolRefusal:
                 return
-            entry.handle.flush()
-            os.fsync(entry.handle.fileno())
-            entry.unsynced = 0
-            entry.synced_at = time.monotonic()
-            if entry.written != entry.durable:
-                entry.durable = entry.written
-                self._append({"op": "durable", "id": tid, "n": entry.durable})
+            claim.handle.flush()
+            os.fsync(claim.handle.fileno())
+            claim.unsynced = 0
+            claim.synced_at = time.monotonic()
+            tid = entry.manifest.transfer_id
+            for i in sorted(claim.touched):
+                if entry.written[i] != entry.durable[i]:
+                    entry.durable[i] = entry.written[i]
+                    self._append({"op": "durable", "id": tid, "seg": i, "n": entry.durable[i]})
 
-    def release(self, tid: str) -> None:
-        """The connection carrying ``tid`` ended: keep what arrived, free the claim."""
+    def release(self, m: Manifest | str) -> None:
+        """The connection carrying ``m`` ended: keep what arrived, free the claim."""
         with self._lock:
+            tid, key = self._key(m)
             entry = self._entries.get(tid)
-            if entry is not None and entry.handle is not None:
-                try:
-                    self.sync(tid)
-                finally:
-                    entry.handle.close()
-                    entry.handle = None
-            self._active.discard(tid)
+            claim = None if entry is None else entry.claims.get(key)
+            if entry is None or claim is None:
+                return
+            try:
+                self.sync(m)
+            finally:
+                claim.handle.close()
+                del entry.claims[key]
 
-    def complete(self, tid: str) -> Path:
+    def complete(self, m: Manifest | str) -> Path:
         """Verify the full file against the manifest hash; return its path in the spool.
 
-        On a mismatch the partial data is discarded (the sender must start again) and
+        On a mismatch the data is discarded (the sender must start again) and
         :class:`SpoolRefusal` with ``HASH_MISMATCH`` or ``SIZE_MISMATCH`` is raised.
         """
+        tid, _ = self._key(m)
         with self._lock:
             entry = self._entries[tid]
             if entry.state is not EntryState.PARTIAL:
-                return self._ready(tid)
-            self.sync(tid)
+                return self._ready(tid) if entry.state is EntryState.VERIFIED else Path(
+                    entry.delivered or self._ready(tid))
+            self.sync(m)
             part = self._part(tid)
         digest = hashlib.sha256()
         size = 0
@@ -343,22 +438,22 @@ class Spool:
             while chunk := fh.read(1 << 20):
                 digest.update(chunk)
                 size += len(chunk)
-        m = entry.manifest
+        man = entry.manifest
         problem: SpoolRefusal | None = None
-        if size != m.size:
+        if size != man.size:
             problem = SpoolRefusal(
-                Reason.SIZE_MISMATCH, f"size mismatch: manifest says {m.size}, stored {size}"
+                Reason.SIZE_MISMATCH, f"size mismatch: manifest says {man.size}, stored {size}"
             )
-        elif digest.hexdigest() != m.sha256:
+        elif digest.hexdigest() != man.sha256:
             problem = SpoolRefusal(
                 Reason.HASH_MISMATCH,
-                f"SHA-256 mismatch: manifest says {m.sha256[:16]}..., "
+                f"SHA-256 mismatch: manifest says {man.sha256[:16]}..., "
                 f"received data hashes to {digest.hexdigest()[:16]}...",
             )
         with self._lock:
-            if entry.handle is not None:
-                entry.handle.close()
-                entry.handle = None
+            for claim in entry.claims.values():
+                claim.handle.close()
+            entry.claims.clear()
             if problem is not None:
                 part.unlink(missing_ok=True)
                 del self._entries[tid]
@@ -367,7 +462,8 @@ class Spool:
                 raise problem
             os.replace(part, self._ready(tid))
             entry.state = EntryState.VERIFIED
-            entry.durable = entry.written = m.size
+            entry.durable = [e - s for s, e in map(entry.bounds, range(entry.segments))]
+            entry.written = list(entry.durable)
             self._append({"op": "verified", "id": tid})
             self.counters["verified"] += 1
             self._deliver(entry)
@@ -375,6 +471,17 @@ class Spool:
             return self._ready(tid) if entry.state is EntryState.VERIFIED else Path(
                 entry.delivered or ""
             )
+
+    def all_held(self, tid: str) -> bool:
+        """Whether every byte of ``tid`` is stored (ready for verification)."""
+        with self._lock:
+            entry = self._entries.get(tid)
+            if entry is None:
+                return False
+            if entry.state is not EntryState.PARTIAL:
+                return True
+            return all(entry.durable[i] == e - s
+                       for i, (s, e) in enumerate(map(entry.bounds, range(entry.segments))))
 
     def _deliver(self, entry: Entry) -> None:
         if self.deliver_dir is None or entry.delivered:
@@ -428,7 +535,9 @@ class Spool:
     def close(self) -> None:
         """Sync every open transfer and close the journal (idempotent)."""
         with self._lock:
-            for tid in list(self._active):
-                self.release(tid)
+            for tid, entry in list(self._entries.items()):
+                for key in list(entry.claims):
+                    self.release(tid if key is None else replace(
+                        entry.manifest, segment=(key, entry.segments)))
             if not self._journal.closed:
                 self._journal.close()

@@ -68,12 +68,12 @@ def test_diff_names_each_changed_setting_and_its_fate() -> None:
     assert changes["links.radio.url"].describe() == \
         "links.radio.url: 'udp://0.0.0.0:3794' -> 'udp://0.0.0.0:3795'"
     assert changes["discovery.period"].outcome == APPLIED
-    assert changes["report_rates.ReportGlobalPose"].outcome == DEFERRED
+    assert changes["report_rates.ReportGlobalPose"].outcome == APPLIED
     assert changes["report_rates.ReportGlobalPose"].describe() == \
         "report_rates.ReportGlobalPose: 5.0 -> 2.0"
-    with_engine = {c.key: c.outcome for c in diff_profiles(old, new, engine_applies=True)}
-    assert with_engine["report_rates.ReportGlobalPose"] == APPLIED
-    assert with_engine["links.radio.url"] == RESTART
+    without_engine = {c.key: c.outcome for c in diff_profiles(old, new, engine_applies=False)}
+    assert without_engine["report_rates.ReportGlobalPose"] == DEFERRED
+    assert without_engine["discovery.period"] == APPLIED
     # the running relay keeps its identity and links; everything else is taken
     kept = effective_profile(old, new)
     assert kept.jaus_id == old.jaus_id and kept.links == old.links
@@ -140,6 +140,7 @@ def test_sighup_applies_new_timing_without_dropping_the_vehicle(
             assert await _count(peer, "QueryHeartbeatPulse", 1.0) >= 3
             assert relay.proc.poll() is None
         finally:
+            stop_requested = time.monotonic()
             code = await asyncio.to_thread(relay.stop)  # the peer answers the goodbyes
             peer.close()
         log = relay.log()
@@ -151,16 +152,35 @@ def test_sighup_applies_new_timing_without_dropping_the_vehicle(
         assert "reload: applied discovery.liveness_period: 1.0 -> 0.2" in log
         assert "needs a restart: links.lan.bandwidth: 0 -> 9600" in log
         assert "discovery.period: must be a positive number, got -1.0" in log
-        rate_line = "report_rates.ReportGlobalPose: 2.0 -> 8.0"
-        if "reload: deferred " + rate_line in log:
-            # the engine cannot re-rate a running event yet: the old event stays
-            rates = {round(r.fields["requested_periodic_rate"], 1)
-                     for r in peer.names("CreateEvent")}
-            assert rates == {2.0}
-        else:
-            assert "reload: applied " + rate_line in log
-            rates = [round(r.fields["requested_periodic_rate"], 1)
-                     for r in peer.names("CreateEvent")]
-            assert rates[0] == 2.0 and rates[-1] == 8.0
+        assert "reload: applied report_rates.ReportGlobalPose: 2.0 -> 8.0" in log
+        # the running event was updated in place: asked again at the new rate, never
+        # cancelled
+        rates = [round(r.fields["requested_periodic_rate"], 1)
+                 for r in peer.names("CreateEvent")
+                 if r.fields["query_message"][:2] == b"\x02\x24"]  # QueryGlobalPose
+        assert rates[0] == 2.0 and rates[-1] == 8.0, rates
+        assert not [r for r in peer.names("CancelEvent") if r.at < stop_requested]
 
     asyncio.run(main())
+
+
+def test_subscription_set_rate_updates_an_active_event_and_retimes_polling() -> None:
+    from edge_vis.config import EventsProfile
+    from edge_vis.engine.subscriptions import Subscription, SubscriptionState
+
+    ids = iter(range(1, 100))
+    sub = Subscription(PEER_ID, "ReportGlobalPose", "QueryGlobalPose", {}, 2.0, False,
+                       EventsProfile(), lambda name, fields: b"\x02\x24", lambda: next(ids))
+    sub.start(0.0)
+    sub.on_confirm(event_id=4, rate=2.0, now=0.1)
+    [request] = sub.set_rate(8.0, 1.0)
+    assert request.name == "CreateEvent"
+    assert request.fields["requested_periodic_rate"] == 8.0
+    assert sub.state is SubscriptionState.ACTIVE and sub.event_id == 4  # never dropped
+    sub.on_confirm(event_id=4, rate=8.0, now=1.1)
+    assert sub.confirmed_rate == 8.0
+
+    sub.on_reject(code=1, now=2.0)  # the provider will not do events: polled
+    assert sub.state is SubscriptionState.POLLING
+    assert sub.set_rate(0.5, 2.0) == []
+    assert sub.next_deadline() == 4.0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import json
 import socket
 import threading
 import time
@@ -143,3 +144,25 @@ def test_links_command_reports_traffic_and_mirrors_it(
     assert len(list(read_udp(pcap.read_bytes(), port=None))) == 3
     assert main(["links", "--link", "serial:///dev/does-not-exist", "--listen", "0"]) == 1
     assert "state: error" in capsys.readouterr().out
+
+
+def test_mirror_copies_to_a_loopback_udp_port() -> None:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as listener:
+        listener.bind(("127.0.0.1", 0))
+        listener.settimeout(2)
+        mirror = Mirror(udp_port=listener.getsockname()[1])
+        packets = [msg(A, B, sequence=4), msg(A, B, sequence=5)]
+        mirror.tap("radio", "out", "/dev/ttyUSB0", packets)
+        data = listener.recv(65535)
+        mirror.close()
+        mirror.close()
+    assert unpack_datagram(data) == packets
+    assert mirror.copied == 1 and mirror.dropped == 0
+
+
+def test_links_command_json_output(capsys: pytest.CaptureFixture[str]) -> None:
+    port = free_port(("127.0.0.2",))
+    assert main(["links", "--link", f"udp://127.0.0.2:{port}?name=lan", "--listen", "0",
+                 "--json"]) == 0
+    entry = json.loads(capsys.readouterr().out)
+    assert entry["state"] == "open" and entry["mtu"] == 4079 and entry["malformed"] == 0

@@ -7,6 +7,8 @@ import re
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.serial import SerialDeframer, SerialError, SerialFrame, crc16, frame
@@ -172,3 +174,27 @@ def test_false_start_in_noise_does_not_hold_back_a_real_frame(noise: bytes) -> N
     # the stray DLE pairs with the real frame's DLE SOH; the frame must still come out now
     out = SerialDeframer().feed(noise + frame(packet(9)))
     assert [r.packet.sequence for r in out if isinstance(r, SerialFrame)] == [9]
+
+
+@given(
+    payload=st.binary(max_size=300),
+    sequence=st.integers(0, 0xFFFF),
+    flags=st.integers(0, 0xFF),
+    ids=st.tuples(st.integers(0, 0xFFFFFFFF), st.integers(0, 0xFFFFFFFF)),
+    cuts=st.lists(st.integers(1, 50), max_size=20),
+)
+@settings(max_examples=200, deadline=None)
+def test_any_packet_round_trips_in_any_chunking(
+    payload: bytes, sequence: int, flags: int, ids: tuple[int, int], cuts: list[int]
+) -> None:
+    p = Packet(JausAddress.from_id(ids[0]), JausAddress.from_id(ids[1]), payload,
+               sequence=sequence, priority=flags & 3, broadcast=(flags >> 2) & 3,
+               ack_nak=(flags >> 4) & 3, data_flags=(flags >> 6) & 3)
+    raw = frame(p)
+    deframer = SerialDeframer()
+    out = []
+    pos = 0
+    for cut in [*cuts, len(raw)]:
+        out += deframer.feed(raw[pos:pos + cut])
+        pos += cut
+    assert out == [SerialFrame(p, raw)]

@@ -187,3 +187,31 @@ def test_runs_are_reproducible() -> None:
 
 def test_ocu_address_in_reports(wire: Wire) -> None:
     assert wire.query("QueryHeartbeatPulse", to=NODE_MANAGER).destination == OCU
+
+
+def test_sensor_capabilities_and_configuration_are_answered(wire: Wire) -> None:
+    for query, list_key in (
+            ("QueryRangeSensorCapabilities", "range_sensor_capabilities_list"),
+            ("QueryRangeSensorConfiguration", "range_sensor_configuration_list"),
+            ("QueryVisualSensorCapabilities", "query_visual_sensor_capabilities_list"),
+            ("QueryVisualSensorConfiguration", "query_visual_sensor_configuration_list"),
+            ("QueryStillImageSensorCapabilities", "query_still_image_sensor_capabilities_list"),
+            ("QueryStillImageSensorConfiguration",
+             "query_still_image_sensor_configuration_list")):
+        defn = wire.catalogue.by_name(query)
+        (field,) = defn.body.fields
+        out = wire.query(query, {field.name: []}, to=SENSORS)
+        assert out.name == query.replace("Query", "Report", 1)
+        (items,) = out.fields.values()
+        assert items[0]["sensor_id"] == 1, list_key
+
+
+def test_first_dropout_time_can_be_given() -> None:
+    wire = Wire(spec(faults={"dropout_every": 60.0, "dropout_duration": 2.0,
+                             "dropout_first": 3.0}))
+    wire.advance(2.9)
+    assert wire.send("QueryStatus") != []
+    wire.advance(0.2)
+    assert wire.send("QueryStatus") == []
+    wire.advance(2.0)
+    assert wire.send("QueryStatus") != []

@@ -45,6 +45,8 @@ class Client(asyncio.DatagramProtocol):
         loop = asyncio.get_running_loop()
         for packet in unpack_datagram(data):
             self.packets.append(packet)
+            if packet.ack_nak == AckNak.ACK:
+                continue
             whole = self.reassembler.feed(packet, loop.time())
             if whole is not None:
                 self.messages.put_nowait((whole, CAT.decode(whole.payload)))

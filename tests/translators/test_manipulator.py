@@ -38,6 +38,10 @@ COMMAND_CASES: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
         {"values": [50.0, -150.0, math.nan]},
         {"joint_effort_list": [{"joint_effort": 50.0}, {"joint_effort": -100.0},
                                {"joint_effort": 0.0}]}),
+    "SetActuatorForceTorques": (
+        {"values": [12.5, -600.0], "units": ["N m", "N"]},
+        {"actuator_force_torque_list": [{"joint_force_torque": {"newton_meter": 12.5}},
+                                        {"joint_force_torque": {"newton": -500.0}}]}),
     "SetPanTiltJointPositions": (
         {"values": [0.5, -0.25]}, {"joint1_position": 0.5, "joint2_position": -0.25}),
     "SetPanTiltJointVelocity": (

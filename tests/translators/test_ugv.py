@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import pytest
@@ -31,6 +32,17 @@ COMMAND_CASES: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
     "SetTransferCaseState": ({"state": "AUTO_4WD"}, {"transfer_case_state": 2}),
     "SetAnnunciatorState": ({"state": "horn=3"}, {"annunciator": {"horn": 3}}),
     "ResetOdometry": ({"state": "trip_b"}, {"odometry_type": 3}),
+    "SetStabilizerPosition": ({"device": "stabilizer_2", "value": -4.0},
+                              {"stabilizer_position": [{"stabilizer_id": 2,
+                                                        "position": -math.pi}]}),
+    "SetStabilizerEffort": ({"device": "Stabilizer_1_effort", "value": 40.0},
+                            {"stabilizer_effort": [{"stabilizer_id": 1, "effort": 40.0}]}),
+    "SetPowerPlantConfiguration": (
+        {"device": "power_plant_3", "state": "POWER_OFF"},
+        {"power_plant_configuration_list": [{
+            "power_plant_id": {"power_plant_id": 3},
+            "power_plant_configuration_var": {"battery_configuration_rec": {
+                "power_state": 2}}}]}),
 }
 
 
@@ -44,18 +56,22 @@ def test_every_declared_command(rule: CommandRule) -> None:
     command = check_command_rule(TR(), rule, command_sample(rule, **values))
     for key, value in expected.items():
         got = command.fields[key]
-        if isinstance(value, dict):  # bit fields: named members set, every other one 0
+        if isinstance(value, dict) and key in ("illumination", "annunciator"):
+            # bit fields: the named members set, every other one 0
             assert {k: v for k, v in got.items() if v} == value
         else:
             assert got == value
 
 
-@pytest.mark.parametrize(("device", "state"), [("transmission", "WARP"),
-                                               ("illumination", "laser"),
-                                               ("odometer", "PLATFORM"),
-                                               ("transmission", "")])
-def test_bad_device_states_are_refused_not_guessed(device: str, state: str) -> None:
-    sample = {"vehicle_id": "veh1", "operator_id": "op1", "device": device, "state": state}
+@pytest.mark.parametrize(("device", "state", "value"), [
+    ("transmission", "WARP", 0.0), ("illumination", "laser", 0.0),
+    ("odometer", "PLATFORM", 0.0), ("transmission", "", 0.0),
+    ("power_plant_1", "ON", 0.0), ("power_plant_256", "POWER_ON", 0.0),
+    ("stabilizer_1", "", math.nan)])
+def test_bad_device_states_are_refused_not_guessed(device: str, state: str,
+                                                   value: float) -> None:
+    sample = {"vehicle_id": "veh1", "operator_id": "op1", "device": device, "state": state,
+              "value": value}
     assert TR().on_sample("DeviceCommand", sample, CTX) == []
 
 
@@ -86,7 +102,7 @@ def test_power_plants_one_sample_each() -> None:
          "power_plant_status_var": {"battery_status": [{
              "percent_charge_remaining": 81.5, "voltage": 24.2, "battery_temp": -10.0}]}},
         {"power_plant_desc_rec": {"power_plant_id": 2, "description": "generator"},
-         "power_plant_status_var": {"diesel_engine_status": [{"engine_hours": 1234}]}},
+         "power_plant_status_var": {"diesel_engine_status": {"engine_hours": 1234}}},
     ]})
     samples = [a.sample for a in TR().on_message("ReportPowerPlantStatus", fields, CTX)]
     assert [s["plant_id"] for s in samples] == [1, 2]

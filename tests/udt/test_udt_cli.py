@@ -45,6 +45,22 @@ def test_send_image_exits_0_when_the_hash_is_confirmed(tmp_path: Path, make_file
     assert (tmp_path / "ops" / "uuv3" / "sonar.tif").read_bytes() == content
 
 
+def test_send_image_sends_a_batch_on_one_connection(tmp_path: Path, make_file):
+    files = [make_file(200_000 + i, f"img{i}.png", seed=i) for i in range(3)]
+    with UdtLink.ImageService(tmp_path / "ops") as ops:
+        host, port = ops.address
+        proc = subprocess.run(
+            edge_vis("send-image", *(str(p) for p, _ in files), "--to", f"{host}:{port}"),
+            capture_output=True, text=True, timeout=60,
+        )
+        connections = ops.receiver.counters["connections"]
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.count("receiver verified the hash") == 3
+    assert connections == 1
+    for i, (_, content) in enumerate(files):
+        assert (tmp_path / "ops" / "vehicle" / f"img{i}.png").read_bytes() == content
+
+
 def test_send_image_exits_1_with_the_receivers_reason(tmp_path: Path, make_file):
     path, _ = make_file(2 << 20)
     with UdtLink.ImageService(tmp_path / "ops", quota_bytes=1 << 20) as ops:

@@ -86,9 +86,9 @@ def test_transfer_interrupted_ten_times_completes(tmp_path: Path, make_file):
             nonlocal drops
             last = 0
             while drops < 10 and not done.is_set():
-                entries = [e for e in ops.spool._entries.values() if e.handle is not None]
-                if entries and entries[0].written - last >= 300_000:
-                    last = entries[0].written
+                entries = [e for e in ops.spool._entries.values() if e.claims]
+                if entries and entries[0].written[0] - last >= 300_000:
+                    last = entries[0].written[0]
                     drops += ops.receiver.drop_connections() > 0
                 time.sleep(0.005)
 

@@ -1,0 +1,373 @@
+"""The operator's live view of the fleet, built from DDS samples only. No I/O.
+
+:class:`FleetView` takes ``(topic, sample dict, now)`` as a DDS subscriber receives them
+and keeps one :class:`VehicleRow` per vehicle: identity, state, position, speed, who holds
+control, how fast its telemetry arrives, its last image - plus the relay's links and a
+count of samples per topic. :meth:`FleetView.render` lays that out for an 80x24 terminal
+(curses or plain text); :meth:`FleetView.summary` gives the figures a demo run reports.
+
+:class:`Operator` turns key presses into command samples (control requests, wrench
+efforts, a short waypoint plan) for the monitor to publish; it holds no socket either.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter, deque
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+#: topics the monitor reads (all published by the relay)
+READ_TOPICS: tuple[str, ...] = (
+    "VehicleIdentification", "VehicleStatus", "GlobalPose", "LocalPose", "Velocity",
+    "ControlStatus", "MissionStatus", "LinkStatus", "RangeScan", "ImageProduct",
+    "EnvironmentalData", "TransferStatus",
+)
+#: command topics the monitor writes
+WRITE_TOPICS: tuple[str, ...] = ("ControlRequest", "WrenchEffortCommand", "WaypointPlan")
+#: topics counted as telemetry in a vehicle's rate column
+TELEMETRY = frozenset({"GlobalPose", "LocalPose", "Velocity", "RangeScan",
+                       "EnvironmentalData"})
+
+EARTH_RADIUS = 6_371_000.0
+
+
+class RateMeter:
+    """Samples per second over a sliding window."""
+
+    def __init__(self, window: float = 5.0) -> None:
+        self.window = window
+        self._times: deque[float] = deque()
+
+    def add(self, now: float) -> None:
+        self._times.append(now)
+        self._trim(now)
+
+    def _trim(self, now: float) -> None:
+        while self._times and now - self._times[0] > self.window:
+            self._times.popleft()
+
+    def rate(self, now: float) -> float:
+        """Samples per second over the last window (0 when none)."""
+        self._trim(now)
+        if not self._times:
+            return 0.0
+        span = max(now - self._times[0], self.window / 2)
+        return len(self._times) / span
+
+
+@dataclass
+class VehicleRow:
+    """What the operator sees of one vehicle."""
+
+    vehicle_id: str
+    name: str = ""
+    vehicle_type: str = ""
+    jaus_address: str = ""
+    link: str = ""
+    state: str = "UNKNOWN"
+    online: bool = False
+    latitude: float | None = None
+    longitude: float | None = None
+    yaw: float | None = None
+    speed: float | None = None
+    depth: float | None = None
+    control: str = "NOT_CONTROLLED"
+    controller: str = ""
+    authority: int = 0
+    mission: str = ""
+    active_waypoint: int = -1
+    last_image: str = ""
+    last_image_size: int = 0
+    images: int = 0
+    went_offline: int = 0
+    recovered: int = 0
+    samples: Counter[str] = field(default_factory=Counter)
+    rates: dict[str, RateMeter] = field(default_factory=dict)
+    last_seen: float = 0.0
+
+    def rate(self, now: float, topics: Iterable[str] = TELEMETRY) -> float:
+        """Telemetry samples per second for this vehicle."""
+        return sum(m.rate(now) for t, m in self.rates.items() if t in topics)
+
+
+class FleetView:
+    """Everything the monitor knows, from DDS samples; see the module docstring."""
+
+    def __init__(self, window: float = 5.0) -> None:
+        self.window = window
+        self.vehicles: dict[str, VehicleRow] = {}
+        self.links: dict[str, dict[str, Any]] = {}
+        self.samples: Counter[str] = Counter()
+        self.started: float | None = None
+
+    def row(self, vehicle_id: str) -> VehicleRow:
+        """The row of ``vehicle_id`` (created on first mention)."""
+        row = self.vehicles.get(vehicle_id)
+        if row is None:
+            row = self.vehicles[vehicle_id] = VehicleRow(vehicle_id)
+        return row
+
+    def ingest(self, topic: str, sample: Mapping[str, Any], now: float) -> None:
+        """Take one sample of ``topic``."""
+        if self.started is None:
+            self.started = now
+        self.samples[topic] += 1
+        if topic == "LinkStatus":
+            self.links[str(sample.get("link", ""))] = dict(sample)
+            return
+        vehicle_id = str(sample.get("vehicle_id", ""))
+        if not vehicle_id:
+            return
+        row = self.row(vehicle_id)
+        row.samples[topic] += 1
+        row.rates.setdefault(topic, RateMeter(self.window)).add(now)
+        row.last_seen = now
+        handler = getattr(self, f"_on_{topic}", None)
+        if handler is not None:
+            handler(row, sample)
+
+    # -- per-topic updates ----------------------------------------------------------------
+
+    def _on_VehicleIdentification(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        row.name = s.get("name", "") or row.name
+        row.vehicle_type = s.get("vehicle_type", "") or row.vehicle_type
+        row.jaus_address = s.get("jaus_address", "") or row.jaus_address
+
+    def _on_VehicleStatus(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        online = bool(s.get("online", False)) and s.get("state") != "OFFLINE"
+        if row.online and not online:
+            row.went_offline += 1
+        elif online and not row.online and row.went_offline > row.recovered:
+            row.recovered += 1
+        row.online = online
+        row.state = str(s.get("state", row.state))
+        row.link = s.get("link", "") or row.link
+
+    def _on_GlobalPose(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        row.latitude, row.longitude = s.get("latitude"), s.get("longitude")
+        row.yaw = s.get("yaw", row.yaw)
+        altitude = s.get("altitude")
+        if altitude is not None and altitude < -0.5:
+            row.depth = -altitude
+
+    def _on_Velocity(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        row.speed = math.hypot(s.get("vx", 0.0) or 0.0, s.get("vy", 0.0) or 0.0)
+
+    def _on_ControlStatus(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        row.control = str(s.get("state", row.control))
+        row.controller = s.get("operator_id", "") or ""
+        row.authority = int(s.get("authority", 0) or 0)
+
+    def _on_MissionStatus(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        row.mission = str(s.get("state", "")).removeprefix("MISSION_")
+        row.active_waypoint = int(s.get("active_waypoint", -1))
+
+    def _on_ImageProduct(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        row.images += 1
+        row.last_image = s.get("file_name", "") or str(s.get("image_id", ""))
+        row.last_image_size = int(s.get("size_bytes", 0) or 0)
+
+    def _on_EnvironmentalData(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        if s.get("depth") is not None:
+            row.depth = s["depth"]
+
+    # -- output ---------------------------------------------------------------------------
+
+    def ordered(self) -> list[VehicleRow]:
+        """Rows sorted by vehicle id."""
+        return [self.vehicles[k] for k in sorted(self.vehicles)]
+
+    def render(self, now: float, width: int = 80, selected: str | None = None) -> list[str]:
+        """Lines of text for a terminal ``width`` columns wide (at least 80)."""
+        width = max(width, 80)
+        head = (f" {'VEHICLE':<15}{'TYPE':<8}{'STATE':<10}{'POSITION':<21}{'M/S':>5} "
+                f"{'CONTROL':<14}{'HZ':>5}")
+        lines = [head[:width]]
+        for row in self.ordered():
+            mark = ">" if row.vehicle_id == selected else " "
+            state = row.state if row.online else "OFFLINE"
+            if row.latitude is not None and row.longitude is not None:
+                pos = f"{row.latitude:9.5f},{row.longitude:10.5f}"
+            else:
+                pos = "-"
+            speed = f"{row.speed:5.1f}" if row.speed is not None else "    -"
+            control = {"CONTROLLED": row.controller or "relay", "NOT_CONTROLLED": "-"}.get(
+                row.control, row.control.lower())
+            line = (f"{mark}{row.vehicle_id[:14]:<15}{row.vehicle_type[:7]:<8}{state[:9]:<10}"
+                    f"{pos:<21}{speed} {control[:13]:<14}{row.rate(now):5.1f}")
+            lines.append(line[:width])
+            extra = []
+            if row.jaus_address:
+                extra.append(f"jaus {row.jaus_address}")
+            if row.link:
+                extra.append(f"link {row.link}")
+            if row.depth is not None:
+                extra.append(f"depth {row.depth:.1f} m")
+            if row.mission and row.mission != "IDLE":
+                extra.append(f"mission {row.mission.lower()} wp {row.active_waypoint}")
+            if row.last_image:
+                size = f" ({row.last_image_size // 1024} KiB)" if row.last_image_size else ""
+                extra.append(f"image {row.last_image}{size}")
+            if row.went_offline:
+                extra.append(f"dropouts {row.went_offline} recovered {row.recovered}")
+            if extra:
+                lines.append(("   " + ", ".join(extra))[:width])
+        if not self.vehicles:
+            lines.append(" (no vehicle seen yet)")
+        if self.links:
+            lines.append("")
+            lines.append(f"{'LINK':<10}{'UP':<4}{'USE':>7} {'BUDGET':>10} {'IN/OUT msgs':>16}"
+                         f"{'DROPS':>7}"[:width])
+            for name in sorted(self.links):
+                link = self.links[name]
+                budget = float(link.get("budget_bps", 0.0) or 0.0)
+                measured = float(link.get("measured_bps", 0.0) or 0.0)
+                use = f"{100 * measured / budget:5.1f}%" if budget > 0 else \
+                    f"{measured / 1000:5.1f}k"
+                drops = sum(int(d.get("count", 0)) for d in link.get("drops", []) or [])
+                msgs = f"{link.get('messages_in', 0)}/{link.get('messages_out', 0)}"
+                budget_text = f"{budget / 1000:.1f} kb/s" if budget > 0 else "unlimited"
+                lines.append((f"{name[:9]:<10}{'yes' if link.get('up') else 'NO':<4}{use:>7} "
+                              f"{budget_text:>10} {msgs:>16}{drops:>7}")[:width])
+        return lines
+
+    def summary(self) -> dict[str, Any]:
+        """Figures for a demo run: vehicles seen, samples per topic, faults recovered."""
+        return {
+            "vehicles": {row.vehicle_id: {
+                "name": row.name, "type": row.vehicle_type, "state": row.state,
+                "online": row.online, "samples": sum(row.samples.values()),
+                "images": row.images, "dropouts": row.went_offline,
+                "recovered": row.recovered} for row in self.ordered()},
+            "samples_per_topic": dict(sorted(self.samples.items())),
+            "faults_recovered": sum(row.recovered for row in self.vehicles.values()),
+        }
+
+
+# -- operator commands --------------------------------------------------------------------
+
+
+def control_request(vehicle_id: str, operator_id: str, authority: int,
+                    release: bool = False) -> dict[str, Any]:
+    """A ControlRequest sample."""
+    return {"vehicle_id": vehicle_id, "operator_id": operator_id,
+            "action": "RELEASE" if release else "REQUEST", "authority": authority}
+
+
+def wrench_command(vehicle_id: str, operator_id: str, linear: float,
+                   rotational: float) -> dict[str, Any]:
+    """A WrenchEffortCommand sample: forward effort and turn effort in percent."""
+    return {"vehicle_id": vehicle_id, "operator_id": operator_id,
+            "propulsive_linear_x": max(-100.0, min(100.0, linear)),
+            "propulsive_rotational_z": max(-100.0, min(100.0, rotational))}
+
+
+def waypoint_plan(vehicle_id: str, operator_id: str, latitude: float, longitude: float,
+                  yaw: float, *, plan_id: str = "", side: float = 15.0,
+                  speed: float = 1.5) -> dict[str, Any]:
+    """A WaypointPlan sample: a short triangle starting ``side`` metres ahead."""
+    points = []
+    for ahead, right in ((side, 0.0), (side, side), (0.0, side)):
+        north = ahead * math.cos(yaw) - right * math.sin(yaw)
+        east = ahead * math.sin(yaw) + right * math.cos(yaw)
+        lat = latitude + math.degrees(north / EARTH_RADIUS)
+        lon = longitude + math.degrees(east / (EARTH_RADIUS * math.cos(math.radians(latitude))))
+        points.append({"latitude": lat, "longitude": lon, "altitude": 0.0, "x": 0.0, "y": 0.0,
+                       "z": 0.0, "tolerance": 1.0})
+    return {"vehicle_id": vehicle_id, "operator_id": operator_id,
+            "plan_id": plan_id or f"{operator_id}-triangle", "waypoints": points,
+            "frame": "GLOBAL", "speed": speed}
+
+
+class Operator:
+    """Key presses to command samples; holds the selection and the drive efforts.
+
+    Keys: Up/Down select a vehicle (or, in drive mode, change forward effort), Left/Right
+    turn in drive mode, ``c`` take control, ``r`` release, ``d`` drive mode on/off,
+    space stop, ``w`` send a waypoint triangle, ``q`` quit.
+    """
+
+    STEP = 10.0
+
+    def __init__(self, operator_id: str, authority: int) -> None:
+        self.operator_id = operator_id
+        self.authority = authority
+        self.selected: str | None = None
+        self.driving = False
+        self.linear = 0.0
+        self.rotational = 0.0
+        self.message = ""
+        self.quit = False
+
+    def select(self, view: FleetView, step: int) -> None:
+        ids = [row.vehicle_id for row in view.ordered()]
+        if not ids:
+            self.selected = None
+            return
+        index = ids.index(self.selected) if self.selected in ids else -1
+        self.selected = ids[(index + step) % len(ids)] if index >= 0 else ids[0]
+
+    def key(self, key: str, view: FleetView) -> list[tuple[str, dict[str, Any]]]:
+        """Handle one key (names: ``UP``, ``DOWN``, ``LEFT``, ``RIGHT`` or a character)."""
+        if self.selected not in view.vehicles:
+            self.select(view, 0)
+        vid = self.selected
+        if key == "q":
+            self.quit = True
+            return self.stop() if self.driving else []
+        if vid is None:
+            self.message = "no vehicle to command yet"
+            return []
+        if not self.driving and key in ("UP", "DOWN"):
+            self.select(view, -1 if key == "UP" else 1)
+            return []
+        if key == "c":
+            self.message = f"requesting control of {vid} (authority {self.authority})"
+            return [("ControlRequest", control_request(vid, self.operator_id, self.authority))]
+        if key == "r":
+            self.driving = False
+            self.message = f"releasing {vid}"
+            return [("ControlRequest", control_request(vid, self.operator_id, self.authority,
+                                                       release=True))]
+        if key == "d":
+            self.driving = not self.driving
+            self.linear = self.rotational = 0.0
+            self.message = f"drive mode {'on' if self.driving else 'off'} for {vid}"
+            return self.stop()
+        if key == " ":
+            return self.stop()
+        if key == "w":
+            row = view.vehicles[vid]
+            if row.latitude is None or row.longitude is None:
+                self.message = f"{vid}: no position yet"
+                return []
+            self.message = f"waypoint triangle sent to {vid}"
+            return [("WaypointPlan", waypoint_plan(vid, self.operator_id, row.latitude,
+                                                   row.longitude, row.yaw or 0.0))]
+        if self.driving and key in ("UP", "DOWN", "LEFT", "RIGHT"):
+            if key in ("UP", "DOWN"):
+                self.linear += self.STEP if key == "UP" else -self.STEP
+            else:
+                self.rotational += self.STEP if key == "RIGHT" else -self.STEP
+            self.linear = max(-100.0, min(100.0, self.linear))
+            self.rotational = max(-100.0, min(100.0, self.rotational))
+            return self.drive()
+        return []
+
+    def drive(self) -> list[tuple[str, dict[str, Any]]]:
+        """The current effort command (resent periodically while driving: dead-man)."""
+        if not self.driving or self.selected is None:
+            return []
+        self.message = f"{self.selected}: effort {self.linear:+.0f}% turn {self.rotational:+.0f}%"
+        return [("WrenchEffortCommand", wrench_command(self.selected, self.operator_id,
+                                                       self.linear, self.rotational))]
+
+    def stop(self) -> list[tuple[str, dict[str, Any]]]:
+        """Zero effort for the selected vehicle."""
+        self.linear = self.rotational = 0.0
+        if self.selected is None:
+            return []
+        return [("WrenchEffortCommand", wrench_command(self.selected, self.operator_id,
+                                                       0.0, 0.0))]

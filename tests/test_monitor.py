@@ -1,0 +1,141 @@
+"""The operator monitor: its view model, its keys, and its plain-text output over real DDS."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import threading
+import time
+import uuid
+
+import pytest
+
+from edge_vis.monitor import FleetView, Operator, waypoint_plan
+
+
+def _fleet(view: FleetView, now: float) -> None:
+    view.ingest("VehicleIdentification", {"vehicle_id": "ugv-a", "name": "ugv-a",
+                                          "vehicle_type": "UGV", "jaus_address": "101.1.1"}, now)
+    view.ingest("VehicleStatus", {"vehicle_id": "ugv-a", "state": "READY", "online": True,
+                                  "link": "lan"}, now)
+    view.ingest("ControlStatus", {"vehicle_id": "ugv-a", "state": "CONTROLLED",
+                                  "operator_id": "alice", "authority": 120}, now)
+    view.ingest("VehicleStatus", {"vehicle_id": "uuv-b", "state": "STANDBY", "online": True},
+                now)
+    view.ingest("LinkStatus", {"link": "radio", "up": True, "budget_bps": 9600.0,
+                               "measured_bps": 4800.0, "messages_in": 10, "messages_out": 4,
+                               "drops": [{"traffic_class": "telemetry", "count": 3}]}, now)
+    for i in range(50):  # 10 Hz of pose for 5 s
+        t = now + i * 0.1
+        view.ingest("GlobalPose", {"vehicle_id": "ugv-a", "latitude": 36.6, "longitude":
+                                   -121.9, "yaw": 0.0}, t)
+        view.ingest("Velocity", {"vehicle_id": "ugv-a", "vx": 1.2, "vy": 0.0}, t)
+    view.ingest("ImageProduct", {"vehicle_id": "uuv-b", "image_id": "atr-1",
+                                 "file_name": "atr-1.png", "size_bytes": 74000}, now + 5)
+
+
+def test_view_lists_vehicles_with_position_control_rates_links_and_images() -> None:
+    view = FleetView()
+    _fleet(view, 100.0)
+    text = "\n".join(view.render(105.0))
+    assert all(len(line) <= 80 for line in text.splitlines())
+    (alpha,) = [line for line in text.splitlines() if "ugv-a" in line]
+    assert "READY" in alpha and "36.60000,-121.90000" in alpha and "alice" in alpha
+    assert " 1.2 " in alpha  # speed
+    assert "20.0" in alpha  # 10 Hz GlobalPose + 10 Hz Velocity
+    assert "uuv-b" in text and "image atr-1.png (72 KiB)" in text
+    (radio,) = [line for line in text.splitlines() if line.startswith("radio")]
+    assert "50.0%" in radio and radio.split()[-1] == "3"
+
+
+def test_dropouts_and_recoveries_are_counted() -> None:
+    view = FleetView()
+    for state, online in (("READY", True), ("OFFLINE", False), ("STANDBY", True),
+                          ("OFFLINE", False)):
+        view.ingest("VehicleStatus", {"vehicle_id": "v", "state": state, "online": online}, 0)
+    row = view.vehicles["v"]
+    assert (row.went_offline, row.recovered) == (2, 1)
+    assert view.summary()["faults_recovered"] == 1
+    assert "OFFLINE" in view.render(1.0)[1]
+
+
+def test_operator_keys_make_commands() -> None:
+    view = FleetView()
+    _fleet(view, 0.0)
+    op = Operator("alice", 150)
+    assert op.key("DOWN", view) == [] and op.selected == "uuv-b"
+    op.key("UP", view)
+    assert op.selected == "ugv-a"
+    [(topic, sample)] = op.key("c", view)
+    assert topic == "ControlRequest"
+    assert sample == {"vehicle_id": "ugv-a", "operator_id": "alice", "action": "REQUEST",
+                      "authority": 150}
+    op.key("d", view)
+    op.key("UP", view)
+    [(topic, sample)] = op.key("RIGHT", view)
+    assert topic == "WrenchEffortCommand"
+    assert (sample["propulsive_linear_x"], sample["propulsive_rotational_z"]) == (10.0, 10.0)
+    assert op.drive()[0][1]["propulsive_linear_x"] == 10.0  # repeated while driving
+    assert op.key(" ", view)[0][1]["propulsive_linear_x"] == 0.0
+    [(topic, plan)] = op.key("w", view)
+    assert topic == "WaypointPlan" and len(plan["waypoints"]) == 3
+    [(topic, sample)] = op.key("r", view)
+    assert sample["action"] == "RELEASE" and not op.driving
+    op.key("q", view)
+    assert op.quit
+
+
+def test_waypoint_triangle_starts_ahead_of_the_vehicle() -> None:
+    plan = waypoint_plan("v", "op", 36.6, -121.9, 0.0, side=100.0)
+    first, second, third = plan["waypoints"]
+    assert first["latitude"] > 36.6 and abs(first["longitude"] + 121.9) < 1e-9  # north
+    assert second["longitude"] > -121.9  # then east
+    assert abs(third["latitude"] - 36.6) < 1e-9
+
+
+@pytest.mark.dds
+def test_plain_output_lists_the_vehicles_published_on_dds() -> None:
+    pytest.importorskip("cyclonedds")
+    from edge_vis.dds import DdsBridge, loopback_config
+
+    config = loopback_config()
+    domain = 180 + os.getpid() % 40
+    partition = f"monitor-test-{uuid.uuid4().hex[:10]}"
+    bridge = DdsBridge(domain, [partition], config=config)
+    stop = threading.Event()
+
+    def relay() -> None:  # what a relay would publish, at 10 Hz
+        bridge.publish("VehicleIdentification", {"vehicle_id": "ugv-alpha-101",
+                                                 "name": "ugv-alpha", "vehicle_type": "UGV"})
+        bridge.publish("VehicleIdentification", {"vehicle_id": "uuv-delta-300",
+                                                 "name": "uuv-delta", "vehicle_type": "AUV"})
+        while not stop.is_set():
+            for vid, lat in (("ugv-alpha-101", 36.6002), ("uuv-delta-300", 36.62)):
+                bridge.publish("VehicleStatus", {"vehicle_id": vid, "state": "STANDBY",
+                                                 "online": True})
+                bridge.publish("GlobalPose", {"vehicle_id": vid, "latitude": lat,
+                                              "longitude": -121.9, "altitude": 0.0,
+                                              "roll": 0.0, "pitch": 0.0, "yaw": 0.0,
+                                              "timestamp_ms": int(time.time() * 1000)})
+            stop.wait(0.1)
+
+    thread = threading.Thread(target=relay, daemon=True)
+    thread.start()
+    try:
+        env = dict(os.environ, CYCLONEDDS_URI=config)
+        done = subprocess.run(
+            [sys.executable, "-m", "edge_vis", "monitor", "--domain", str(domain),
+             "--partition", partition, "--once", "--wait", "3", "--summary"],
+            capture_output=True, text=True, timeout=60, env=env)
+    finally:
+        stop.set()
+        thread.join()
+        bridge.close()
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    (alpha,) = [line for line in lines if line.startswith(" ugv-alpha-101")]
+    (delta,) = [line for line in lines if line.startswith(" uuv-delta-300")]
+    assert "UGV" in alpha and "STANDBY" in alpha and "36.60020,-121.90000" in alpha
+    assert "AUV" in delta and "36.62000" in delta
+    assert '"GlobalPose"' in done.stdout  # the JSON summary counts samples per topic

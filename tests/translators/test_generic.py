@@ -1,0 +1,199 @@
+"""The generic translator (profile mappings, no Python) and the rule machinery under every
+translator; removing any one translator from the selection leaves the others working."""
+
+from __future__ import annotations
+
+import random
+from pathlib import Path
+from typing import Any
+
+import pytest
+from rulekit import CAT, CTX, TYPES, command_sample, report
+
+from edge_vis.catalogue import Catalogue
+from edge_vis.config import TranslatorSelection, from_mapping
+from edge_vis.dds.convert import converter_for
+from edge_vis.engine.actions import Command, Publish
+from edge_vis.engine.manager import TranslationManager
+from edge_vis.errors import ConfigError, PluginLoadError
+from edge_vis.jsidl import load_jsidl
+from translators.generic import GenericTranslator, code_of, get_path, parse_mappings
+
+#: a user's own JSIDL: a water quality probe (also used by the end-to-end test)
+JSIDL = (Path(__file__).parent / "WaterQuality.xml").read_text()
+
+MAPPING = {"message": "ReportWaterQuality", "topic": "WaterQuality",
+           "query": "QueryWaterQuality", "service": "urn:example:WaterQuality", "rate": 0.5,
+           "fields": {"turbidity_ntu": "turbidity", "ph": "ph", "station": "station"}}
+
+
+@pytest.fixture
+def catalogue(tmp_path: Path) -> Catalogue:
+    path = tmp_path / "WaterQuality.xml"
+    path.write_text(JSIDL)
+    extended = CAT.copy()
+    extended.add(load_jsidl([path]), source="test JSIDL")
+    return extended
+
+
+def test_profile_mapping_translates_a_user_message(catalogue: Catalogue) -> None:
+    prof = from_mapping({"translators": {"enabled": ["generic"],
+                                         "generic": {"mappings": [MAPPING]}}}, file="p.toml")
+    manager = TranslationManager.from_selection(prof.translators)
+    (tr,) = manager.translators
+    assert tr.messages == ("ReportWaterQuality",) and tr.publishes == ("WaterQuality",)
+    (spec,) = tr.reports
+    assert (spec.query, spec.service, spec.rate) == ("QueryWaterQuality",
+                                                     "urn:example:WaterQuality", 0.5)
+    assert catalogue.decode(catalogue.encode(spec.query, spec.query_fields)).name == spec.query
+    (topic,) = tr.topic_types
+    assert topic.name == "WaterQuality" and topic.type is TYPES["GenericReport"]
+
+    message = catalogue.decode(catalogue.encode("ReportWaterQuality",
+                                                {"turbidity": 12.5, "station": "pier 3"}))
+    (action,) = manager.on_message(message.name, message.fields, CTX)
+    assert isinstance(action, Publish) and action.topic == "WaterQuality"
+    sample = action.sample
+    assert sample["message"] == "ReportWaterQuality" and sample["vehicle_id"] == "veh1"
+    fields = {f["name"]: f for f in sample["fields"]}
+    assert set(fields) == {"turbidity_ntu", "station"}  # ph absent: left out
+    assert fields["turbidity_ntu"]["number"] == pytest.approx(12.5, abs=0.01)
+    assert fields["station"] == {"name": "station", "text": "pier 3",
+                                 "number": fields["station"]["number"]}
+    converter_for(TYPES["GenericReport"]).to_struct(sample, "WaterQuality")
+
+
+def test_generic_is_empty_without_mappings() -> None:
+    tr = GenericTranslator()
+    assert (tr.messages, tr.reports, tr.publishes, tr.topic_types) == ((), (), (), ())
+    assert tr.describe() == []
+
+
+@pytest.mark.parametrize(("table", "where", "text"), [
+    ({"mappings": [{"topic": "T"}]}, "translators.generic.mappings[0].message", "missing"),
+    ({"mappings": [{**MAPPING, "rate": 0}]}, "translators.generic.mappings[0].rate", "Hz"),
+    ({"mappings": [{**MAPPING, "rate": "fast"}]}, "translators.generic.mappings[0].rate", "Hz"),
+    ({"mappings": [{**MAPPING, "service": ""}]}, "translators.generic.mappings[0].service",
+     "together"),
+    ({"mappings": [{**MAPPING, "colour": 1}]}, "translators.generic.mappings[0].colour",
+     "unknown key"),
+    ({"mappings": [{**MAPPING, "topic": "Water Quality"}]},
+     "translators.generic.mappings[0].topic", "letters"),
+    ({"mappings": [{**MAPPING, "fields": {"x": 3}}]}, "translators.generic.mappings[0].fields",
+     "JAUS field path"),
+    ({"mappings": [MAPPING, MAPPING]}, "translators.generic.mappings[1].message", "already"),
+    ({"mapping": []}, "translators.generic.mapping", "unknown key"),
+    ({"mappings": {}}, "translators.generic.mappings", "array"),
+])
+def test_bad_mappings_name_the_key(table: dict[str, Any], where: str, text: str) -> None:
+    with pytest.raises(ConfigError) as info:
+        parse_mappings(table, "p.toml")
+    assert any(path == where and text in message for _, path, message in info.value.problems), \
+        info.value.problems
+
+
+def test_bad_mapping_stops_the_relay_at_start() -> None:
+    prof = from_mapping({"translators": {"generic": {"mappings": [{"topic": "T"}]}}})
+    with pytest.raises(ConfigError):
+        TranslationManager.from_selection(prof.translators)
+
+
+def test_options_for_a_translator_without_options_are_refused() -> None:
+    prof = from_mapping({"translators": {"ugv": {"speed": 3}}})
+    with pytest.raises(PluginLoadError, match=r"\[translators.ugv\]"):
+        TranslationManager.from_selection(prof.translators)
+
+
+def test_paths_and_names() -> None:
+    fields = {"a": {"b": [1, 2]}, "v": {"radian": 1.5}}
+    assert get_path(fields, "a.b") == [1, 2]
+    assert get_path(fields, "v.*") == 1.5
+    assert get_path(fields, "a.missing.deeper", "dflt") == "dflt"
+    assert code_of({0: "Standard_Operating", 4: "MPEG-4 Visual"})("mpeg 4 visual") == 4
+    with pytest.raises(ValueError, match="Standard_Operating"):
+        code_of({0: "Standard_Operating"})("nope")
+
+
+# -- removing any one translator leaves the others working -------------------------------
+
+ALL = ("core", "environment", "generic", "iop", "manipulator", "mobility", "ugv", "uuv")
+
+
+def _representative(name: str) -> tuple[str, dict[str, Any], str]:
+    """(message, fields, topic) that translator ``name`` must translate."""
+    if name == "core":
+        return "ReportStatus", {"status": 1, "reserved": 0}, "VehicleStatus"
+    if name == "mobility":
+        return "ReportGlobalPose", {"latitude": 1.0, "longitude": 2.0}, "GlobalPose"
+    if name == "generic":
+        return "", {}, ""
+    cls = {t.name: type(t) for t in TranslationManager.from_selection(
+        TranslatorSelection((name,))).translators}[name]
+    rule = cls.report_rules[-1]
+    return rule.message, report(rule.message, random.Random(name), present=1.0), rule.topic
+
+
+@pytest.mark.parametrize("removed", ALL)
+def test_any_one_translator_can_be_removed(removed: str) -> None:
+    manager = TranslationManager.from_selection(TranslatorSelection(("*",), (removed,)))
+    names = [t.name for t in manager.translators]
+    assert names == [n for n in ALL if n != removed]
+    for name in names:
+        message, fields, topic = _representative(name)
+        if not message:
+            continue
+        actions = manager.on_message(message, fields, CTX)
+        assert any(isinstance(a, Publish) and a.topic == topic for a in actions), (name, actions)
+    # and every remaining translator that takes commands still turns samples into them
+    for tr in manager.translators:
+        for rule in getattr(tr, "command_rules", ())[:1]:
+            sample = command_sample(rule, values=[0.5, 0.5], state="DRIVE",
+                                    platform_state="Operational")
+            assert any(isinstance(a, Command)
+                       for a in manager.on_sample(rule.topic, sample, CTX)), rule.message
+    if "mobility" in names:
+        drive = {"vehicle_id": "veh1", "operator_id": "op1", "propulsive_linear_x": 10.0}
+        assert isinstance(manager.on_sample("WrenchEffortCommand", drive, CTX)[0], Command)
+
+
+# -- the mapping table ----------------------------------------------------------------------
+
+
+def test_mappings_command_lists_every_declared_rule(capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from edge_vis.cli import main
+
+    assert main(["mappings", "--json"]) == 0
+    table = json.loads(capsys.readouterr().out)
+    rows = table["rows"]
+    for tr in TranslationManager.from_selection(TranslatorSelection()).translators:
+        declared = {r.message for r in getattr(tr, "report_rules", ())} | {
+            c.message for c in getattr(tr, "command_rules", ())}
+        listed = {r["message"] for r in rows if r["translator"] == tr.name}
+        assert declared <= listed, tr.name
+        assert set(tr.messages) <= listed | {"VendorHello"}, tr.name
+    counts = table["counts"]
+    assert counts["translated_messages"] == len(
+        {r["message"] for r in rows if r["direction"] in ("jaus->dds", "dds->jaus")})
+    assert counts["jaus_messages_total"] >= 100
+    assert main(["mappings"]) == 0
+    text = capsys.readouterr().out
+    assert text.startswith("# JAUS ⇄ DDS mappings") and "## uuv" in text
+    assert "| ReportOceanEnvironment (via QueryOceanEnvironment) | JAUS → DDS |" in text
+
+
+def test_mappings_follow_the_profile(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from edge_vis.cli import main
+
+    (tmp_path / "WaterQuality.xml").write_text(JSIDL)
+    profile = tmp_path / "site.toml"
+    profile.write_text(
+        '[translators]\nenabled = ["generic", "uuv"]\n\n[catalogue]\n'
+        'jsidl = ["WaterQuality.xml"]\n\n[[translators.generic.mappings]]\n'
+        'message = "ReportWaterQuality"\ntopic = "WaterQuality"\n'
+        'fields = { turbidity_ntu = "turbidity" }\n')
+    assert main(["mappings", "--profile", str(profile)]) == 0
+    text = capsys.readouterr().out
+    assert "## generic" in text and "## mobility" not in text
+    assert "fields[name=turbidity_ntu] ← turbidity" in text
