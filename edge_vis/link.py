@@ -336,13 +336,23 @@ class Link(ABC):
     async def _close(self) -> None:
         """Release the medium."""
 
-    def _received(self, peer: Peer, packets: list[Packet], nbytes: int) -> None:
-        """Count and hand good packets to the runtime."""
+    def _received(self, peer: Peer, packets: list[Packet], nbytes: int, *,
+                  tapped: bool = False) -> None:
+        """Count and hand good packets to the runtime.
+
+        ``tapped``: the subclass already showed each datagram to the taps (see
+        :meth:`_tap_in`), because it delivers several datagrams in one call.
+        """
         self.counters.received(peer, nbytes, len(packets))
-        for tap in self._taps:
-            tap(self.name, "in", peer, packets)
+        if not tapped:
+            self._tap_in(peer, packets)
         if self._deliver is not None:
             self._deliver(self.name, peer, packets)
+
+    def _tap_in(self, peer: Peer, packets: list[Packet]) -> None:
+        """Show one received datagram's packets to the taps."""
+        for tap in self._taps:
+            tap(self.name, "in", peer, packets)
 
     def _malformed(self, peer: Peer | None, reason: str, data: bytes) -> None:
         """Count and log bad input (the log is DEBUG: a noisy radio must not flood it)."""

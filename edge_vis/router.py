@@ -285,7 +285,7 @@ class Router:
         local = self._local
         seen = self._seen
         window = self.config.duplicate_window
-        self._expire_duplicates(now)
+        self._expire_duplicates(now, 64)  # a little per call: no stall after a burst
         if self._next_sweep is None:
             self._next_sweep = now + self.config.sweep_interval
         for packet in packets:
@@ -298,7 +298,8 @@ class Router:
             key = (source.id, dest.id, packet.sequence, packet.data_flags,
                    hash(packet.payload))
             route = learned.get(source)
-            if key in seen:
+            expiry = seen.get(key)
+            if expiry is not None and expiry > now:
                 counters["dropped: duplicate"] += 1
                 if route is not None and route.link == link and route.peer == peer:
                     route.seen = now
@@ -463,8 +464,8 @@ class Router:
             if state.queued_bytes:
                 self._drain(state, now, actions)
         if self._next_sweep is not None and now >= self._next_sweep:
-            self._next_sweep = now + self.config.sweep_interval
-            self._expire_duplicates(now)
+            more = self._expire_duplicates(now, 4096)
+            self._next_sweep = now + (0.01 if more else self.config.sweep_interval)
             limit = now - self.config.peer_timeout
             stale = [a for a, r in self._learned.items() if r.seen < limit]
             for address in stale:
@@ -535,13 +536,21 @@ class Router:
         elif packet.ack_nak == AckNak.NAK:
             self.counters["naks received"] += 1
 
-    def _expire_duplicates(self, now: float) -> None:
+    def _expire_duplicates(self, now: float, limit: int) -> bool:
+        """Forget up to ``limit`` expired entries; True when more are due.
+
+        Entries are also checked against ``now`` when looked up, so forgetting late
+        is harmless; it only bounds memory.
+        """
         order = self._seen_order
         seen = self._seen
-        while order and order[0][0] <= now:
+        for _ in range(limit):
+            if not order or order[0][0] > now:
+                return False
             expiry, key = order.popleft()
             if seen.get(key) == expiry:
                 del seen[key]
+        return bool(order) and order[0][0] <= now
 
     def _queue(self, actions: list[Action], link: str, peer: Peer | None,
                packets: Sequence[Packet], now: float) -> None:

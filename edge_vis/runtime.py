@@ -33,7 +33,7 @@ from edge_vis.catalogue import Catalogue, default_catalogue
 from edge_vis.config import RelayProfile
 from edge_vis.engine.actions import Publish, SendMessage, ShutdownComplete
 from edge_vis.engine.engine import Engine
-from edge_vis.errors import CodecError, EdgeVisError
+from edge_vis.errors import CodecError, EdgeVisError, EncodeError
 from edge_vis.jaus.transport import Broadcast, Packet, pack_datagram
 from edge_vis.link import Link, LinkUrl, Peer
 from edge_vis.pcap import PcapWriter, UdpDatagram
@@ -312,7 +312,7 @@ class Runtime:
 
     def _send(self, action: SendMessage, now: float) -> None:
         try:
-            payload = self.catalogue.encode(action.name, action.fields)
+            payload = self.catalogue.encode(_code_of(self.catalogue, action), action.fields)
         except EdgeVisError as exc:
             self.counters["encode errors"] += 1
             log.error("cannot encode %s for %s: %s", action.name, action.destination, exc)
@@ -415,6 +415,18 @@ class Runtime:
             here = (host, 3794)
             src, dst = (far, here) if direction == "in" else (here, far)
             self._mirror_pcap.write(UdpDatagram(time.time(), src, dst, datagram))
+
+
+def _code_of(catalogue: Catalogue, action: SendMessage) -> str | int:
+    """What to encode ``action`` as: its name, or the code of the definition of that name
+    in ``action.service_set`` (two sets may use one name; the code tells them apart)."""
+    if action.service_set is None:
+        return action.name
+    try:
+        return catalogue.by_name(action.name, action.service_set).code
+    except KeyError:
+        raise EncodeError(f"no message named {action.name!r} in service set "
+                          f"{action.service_set!r}") from None
 
 
 def _is_ipv4(text: str) -> bool:

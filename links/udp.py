@@ -248,33 +248,49 @@ class UdpLink(Link):
 
     # -- receiving -------------------------------------------------------------------
     def _readable(self) -> None:
-        """Read every datagram waiting (bounded), one callback per datagram."""
+        """Read every datagram waiting (bounded) and deliver them.
+
+        Consecutive datagrams from one peer are delivered in one call: the router then
+        handles a burst in one pass and sends one batch per destination.
+        """
         sock = self._sock
+        batch: list[Packet] = []
+        batch_peer: tuple[str, int] | None = None
+        batch_bytes = 0
         for _ in range(READ_BATCH):
             if sock is None or self._sock is None:
-                return
+                break
             try:
                 data, addr = sock.recvfrom(65535)
             except BlockingIOError:
-                return
+                break
             except OSError as exc:  # e.g. ICMP errors surfacing on the socket: keep going
                 self.counters.dropped("receive error")
                 self.counters.last_error = str(exc)
                 continue
-            self._datagram(data, addr)
+            try:
+                packets = unpack_datagram(data)
+            except DecodeError as exc:
+                self._malformed(addr, str(exc), data)
+                continue
+            if addr != batch_peer and batch:
+                self._received(batch_peer, batch, batch_bytes, tapped=True)
+                batch, batch_bytes = [], 0
+            self._learn(addr)
+            if self._taps:
+                self._tap_in(addr, packets)
+            batch_peer = addr
+            batch += packets
+            batch_bytes += len(data)
+        if batch:
+            self._received(batch_peer, batch, batch_bytes, tapped=True)
 
-    def _datagram(self, data: bytes, addr: tuple[str, int]) -> None:
-        try:
-            packets = unpack_datagram(data)
-        except DecodeError as exc:
-            self._malformed(addr, str(exc), data)
-            return
+    def _learn(self, addr: tuple[str, int]) -> None:
         learned = self._learned
         if addr not in learned:
             learned[addr] = None
             if len(learned) > MAX_LEARNED:
                 learned.popitem(last=False)
-        self._received(addr, packets, len(data))
 
 
 def _is_ip(text: str) -> bool:

@@ -184,8 +184,6 @@ class EnvironmentTranslator(RuleTranslator):
         ),
     )
     extra_publishes = ("ImageData",)
-    # ATR images of underwater vehicles are image products too (translator ``uuv``)
-    shared_publishes = ("ImageProduct",)
     not_translated = (
         ("ReportRangeSensorCompressedData", "compressed scans: decompression not implemented"),
         ("ReportSensorGeometricProperties", "sensor mounting has no topic in the data model"),

@@ -166,7 +166,9 @@ class CommandRule:
     """A sample of DDS ``topic`` (matching ``when``) -> JAUS command ``message`` to the
     component offering ``service``; ``kind`` groups commands for throttling and ``stop``,
     when given, makes it a motion command (dead-man stop, refused in emergency): the stop
-    fields, or a function of the command's fields giving them (a zero per joint)."""
+    fields, or a function of the command's fields giving them (a zero per joint).
+    ``service_set`` names the message set of ``message`` when two sets use the name
+    (``ExecuteList``): the command is then encoded with that set's code."""
 
     topic: str
     message: str
@@ -176,6 +178,7 @@ class CommandRule:
     when: Mapping[str, Any] = field(default_factory=dict)
     stop: Mapping[str, Any] | Callable[[Mapping[str, Any]], Mapping[str, Any]] | None = None
     doc: str = ""
+    service_set: str | None = None
 
 
 # ---------------------------------------------------------------------------------- helpers
@@ -326,15 +329,12 @@ class RuleTranslator(Translator):
     Subclasses set ``report_rules`` and ``command_rules``; ``messages``, ``reports``,
     ``publishes``, ``subscribes`` and ``controlled_services`` are derived from them (plus
     anything the subclass lists itself in ``extra_messages`` / ``extra_publishes``).
-    ``shared_publishes`` are topics also written by another translator (image products):
-    they are left out of ``publishes`` so the manager's one-writer check passes.
     """
 
     report_rules: ClassVar[tuple[ReportRule, ...]] = ()
     command_rules: ClassVar[tuple[CommandRule, ...]] = ()
     extra_messages: ClassVar[tuple[str, ...]] = ()
     extra_publishes: ClassVar[tuple[str, ...]] = ()
-    shared_publishes: ClassVar[tuple[str, ...]] = ()
     #: names the mapping table lists as not translated, with the reason
     not_translated: ClassVar[tuple[tuple[str, str], ...]] = ()
 
@@ -345,8 +345,8 @@ class RuleTranslator(Translator):
     @classmethod
     def _derive(cls) -> None:
         for name, value in _declarations(cls.report_rules, cls.command_rules,
-                                         cls.extra_messages, cls.extra_publishes,
-                                         cls.shared_publishes).items():
+                                         cls.extra_messages,
+                                         cls.extra_publishes).items():
             setattr(cls, name, value)
 
     def __init__(self) -> None:
@@ -424,7 +424,8 @@ class RuleTranslator(Translator):
         stop = rule.stop(fields) if callable(rule.stop) else rule.stop
         return Command(str(sample.get("vehicle_id", "")), str(sample.get("operator_id", "")),
                        rule.kind, rule.message, fields, rule.service,
-                       stop=dict(stop) if stop is not None else None)
+                       stop=dict(stop) if stop is not None else None,
+                       service_set=rule.service_set)
 
     # -- the mapping table -------------------------------------------------------------------
 
@@ -445,15 +446,14 @@ def _matches(value: Any, wanted: Any) -> bool:
 
 
 def _declarations(report_rules: Sequence[ReportRule], command_rules: Sequence[CommandRule],
-                  extra_messages: Sequence[str] = (), extra_publishes: Sequence[str] = (),
-                  shared: Sequence[str] = ()) -> dict[str, tuple[Any, ...]]:
+                  extra_messages: Sequence[str] = (), extra_publishes: Sequence[str] = ()
+                  ) -> dict[str, tuple[Any, ...]]:
     messages = dict.fromkeys([*(r.message for r in report_rules), *extra_messages])
     reports = tuple(
         ReportSpec(r.message, r.query, r.service, dict(r.query_fields), r.rate, r.on_change)
         for r in report_rules if r.query
     )
-    publishes = dict.fromkeys(t for t in [*(r.topic for r in report_rules), *extra_publishes]
-                              if t not in shared)
+    publishes = dict.fromkeys([*(r.topic for r in report_rules), *extra_publishes])
     subscribes = dict.fromkeys(r.topic for r in command_rules)
     controlled = dict.fromkeys(r.service for r in command_rules)
     return {"messages": tuple(messages), "reports": _unique_reports(reports),
@@ -495,6 +495,8 @@ def describe_rules(translator: str, report_rules: Sequence[ReportRule],
                        for path, s in c.fields.items()],
             "doc": "; ".join(x for x in (f"when {when}" if when else "", c.doc) if x),
         })
+        if c.service_set:
+            rows[-1]["service_set"] = c.service_set
     for name, why in not_translated:
         rows.append({"translator": translator, "direction": "none", "message": name,
                      "topic": "", "query": "", "service": "", "rate": None, "fields": [],

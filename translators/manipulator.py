@@ -18,7 +18,10 @@ DDS -> JAUS (behind control, throttled by the engine):
   SetPanTilt* equivalents for device ``pan_tilt`` (values clamped to the JSIDL limits);
   velocity and effort are motion commands (dead-man stop = zero);
 * ``EndEffectorCommand`` -> SetEndEffectorPose / SetEndEffectorVelocityState /
-  SetEndEffectorEffort by ``mode``.
+  SetEndEffectorEffort by ``mode``;
+* ``JointCommand`` with quantity ``execute_list`` -> ExecuteList (the manipulator's, code
+  0x061E, not mobility's of the same name) to the joint-positions list driver, starting
+  at element ``values[0]``.
 """
 
 from __future__ import annotations
@@ -27,8 +30,8 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-from translators.generic import CommandRule as Cmd
 from translators.generic import (
+    Build,
     Computed,
     Const,
     Each,
@@ -38,6 +41,7 @@ from translators.generic import (
     ReportRule,
     RuleTranslator,
 )
+from translators.generic import CommandRule as Cmd
 
 MANIP = "urn:jaus:jss:manipulator:"
 REVOLUTE_LIMIT = 8 * math.pi        # joint position, rad (JSIDL: +-25.13)
@@ -155,6 +159,14 @@ def _zeros(list_name: str, element: str, alternative: str | None) -> Any:
 
 def _pair_one(name: str) -> Any:
     return Computed(lambda f: [float(f.get(name, math.nan))], f"[{name}]")
+
+
+def _element_uid(sample: Mapping[str, Any]) -> int:
+    """ExecuteList's first element: ``values[0]``, a list element UID (1..65535)."""
+    value = float((sample.get("values") or [math.nan])[0])
+    if math.isnan(value) or not 1 <= value <= 0xFFFF or value != int(value):
+        raise ValueError(f"ExecuteList: element UID {value!r} is not 1..65535")
+    return int(value)
 
 
 class ManipulatorTranslator(RuleTranslator):
@@ -279,6 +291,12 @@ class ManipulatorTranslator(RuleTranslator):
                                 "linear_velocity_component_z", "angular_velocity_component_x",
                                 "angular_velocity_component_y", "angular_velocity_component_z"),
                                0.0), doc="motion: dead-man stop"),
+        Cmd("JointCommand", "ExecuteList", MANIP + "ManipulatorJointPositionsListDriver",
+            "joint_list", {"element_uid": Build("values", _element_uid,
+                                                "values[0]: the list element to start at")},
+            when={"device": ("manipulator", ""), "quantity": "execute_list"},
+            doc="runs the joint-position list loaded on the vehicle",
+            service_set="manipulator"),
         Cmd("EndEffectorCommand", "SetEndEffectorEffort", MANIP + "PrimitiveEndEffector",
             "end_effector_effort", {"end_effector_effort": Put("effort", -100.0, 100.0)},
             when={"mode": "effort"}),
@@ -291,8 +309,6 @@ class ManipulatorTranslator(RuleTranslator):
         ("ReportEndEffectorSpecification", "end-effector parent link; no topic in the model"),
         ("SetToolOffset", "tool offset is set on the vehicle, not from DDS"),
         ("SetJointMotionProfile", "motion profiles are not exposed over DDS"),
-        ("ExecuteList", "manipulator list drivers: not bridged (the name collides with "
-                        "mobility's ExecuteList when encoding by name)"),
     )
 
     def command(self, rule, sample):  # type: ignore[no-untyped-def]

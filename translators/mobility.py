@@ -1,11 +1,17 @@
-"""The ``mobility`` translator (AS6009 slice): pose and velocity out, drive commands in.
+"""The ``mobility`` translator (AS6009): pose, velocity, drivers' state and drive commands.
 
-No I/O. JAUS -> DDS:
+No I/O. The pose, velocity, effort, vector, limit and pose-reset mappings are rule tables
+(:mod:`translators.generic`): what runs is what ``edge-vis mappings`` prints. JAUS -> DDS:
 
 * ReportGlobalPose -> ``GlobalPose`` (degrees, metres, radians)
 * ReportLocalPose -> ``LocalPose`` (metres, radians)
 * ReportVelocityState -> ``Velocity`` (m/s, rad/s)
 * ReportAccelerationState -> ``AccelerationState`` (m/s^2, rad/s^2)
+* ReportWrenchEffort -> ``WrenchEffortState`` (percent)
+* ReportVelocityCommand -> ``VelocityCommandState`` (the current command, m/s, rad/s)
+* ReportGlobalVector / ReportLocalVector -> ``VectorState`` (frame GLOBAL / LOCAL)
+* ReportAccelerationLimit -> ``AccelerationLimit`` (MAXIMUM / MINIMUM)
+* ReportGeomagneticProperty -> ``GeomagneticProperty`` (magnetic variation, rad)
 * ReportActiveElement, ReportTravelSpeed, Confirm/RejectElementRequest and, for
   single-waypoint drivers, the pose reaching a waypoint -> ``MissionStatus``
 
@@ -16,15 +22,20 @@ DDS -> JAUS (commands, throttled and control-checked by the engine):
   unchanged by the vehicle; stop = all propulsive efforts zero)
 * ``VelocityCommand`` -> SetVelocityCommand (current command) to the VelocityStateDriver
   (stop = all zero)
+* ``VectorCommand`` -> SetGlobalVector / SetLocalVector by ``frame`` (angles wrapped to
+  [-pi, pi]; absent = unchanged; stop = speed zero)
+* ``AccelerationLimitCommand`` -> SetAccelerationLimit (MAXIMUM / MINIMUM)
+* ``PoseCommand`` -> SetGlobalPose / SetLocalPose by ``frame`` (resets a pose sensor's
+  estimate; absent = unchanged)
 * ``WaypointPlan`` -> the List Manager sequence to the Global/LocalWaypointListDriver
   (DeleteElement, SetElement with Set{Global,Local}Waypoint elements, ExecuteList), or
   SetTravelSpeed and Set{Global,Local}Waypoint one at a time to a vehicle with only a
-  waypoint driver (see
-  :class:`WaypointMissions`)
+  waypoint driver (see :class:`WaypointMissions`)
 
-Fields a vehicle does not report are published as NaN, so "not reported" never reads as
-zero. ``timestamp_ms`` is the relay's reception time (wall clock, ms since the epoch):
-the JAUS TimeStamp carries no date and cannot be converted without guessing.
+A command that would set nothing (every member absent) is not sent. Fields a vehicle does
+not report are published as NaN, so "not reported" never reads as zero. ``timestamp_ms``
+is the relay's reception time (wall clock, ms since the epoch): the JAUS TimeStamp carries
+no date and cannot be converted without guessing.
 """
 
 from __future__ import annotations
@@ -36,48 +47,48 @@ from typing import Any
 
 from edge_vis.catalogue import default_catalogue
 from edge_vis.engine.actions import Action, Command, Publish
-from edge_vis.translator import ReportSpec, Translator, TranslatorContext
+from edge_vis.errors import ConfigError
+from edge_vis.translator import ReportSpec, TranslatorContext
+from translators.generic import (
+    NAN,
+    Build,
+    Const,
+    From,
+    Put,
+    ReportRule,
+    RuleTranslator,
+    code_of,
+    label,
+    number,
+)
+from translators.generic import CommandRule as Cmd
 
 MOBILITY = "urn:jaus:jss:mobility:"
 PRIMITIVE_DRIVER = MOBILITY + "PrimitiveDriver"
 VELOCITY_DRIVER = MOBILITY + "VelocityStateDriver"
+GLOBAL_POSE_SENSOR = MOBILITY + "GlobalPoseSensor"
+LOCAL_POSE_SENSOR = MOBILITY + "LocalPoseSensor"
+GLOBAL_VECTOR_DRIVER = MOBILITY + "GlobalVectorDriver"
+LOCAL_VECTOR_DRIVER = MOBILITY + "LocalVectorDriver"
 
 #: presence vector asking for every field of the pose and velocity reports
 ALL_FIELDS = 0x01FF
+#: ... of ReportWrenchEffort (12 efforts)
+ALL_EFFORTS = 0x0FFF
+#: ... of ReportVelocityCommand and ReportAccelerationLimit (6 values)
+ALL_SIX = 0x3F
+#: ... of Report{Global,Local}Vector (speed, altitude/z, heading, roll, pitch)
+ALL_VECTOR = 0x1F
 
-#: (JAUS report field, DDS sample field) per report
-_GLOBAL_POSE = (("latitude", "latitude"), ("longitude", "longitude"), ("altitude", "altitude"),
-                ("roll", "roll"), ("pitch", "pitch"), ("yaw", "yaw"))
-_LOCAL_POSE = (("x", "x"), ("y", "y"), ("z", "z"), ("roll", "roll"), ("pitch", "pitch"),
-               ("yaw", "yaw"))
-_VELOCITY = (("velocity_x", "vx"), ("velocity_y", "vy"), ("velocity_z", "vz"),
-             ("roll_rate", "roll_rate"), ("pitch_rate", "pitch_rate"), ("yaw_rate", "yaw_rate"))
-_ACCELERATION = (("acceleration_x", "ax"), ("acceleration_y", "ay"), ("acceleration_z", "az"),
-                 ("roll_acceleration", "roll_acceleration"),
-                 ("pitch_acceleration", "pitch_acceleration"),
-                 ("yaw_acceleration", "yaw_acceleration"))
-_REPORTS = {
-    "ReportGlobalPose": ("GlobalPose", _GLOBAL_POSE),
-    "ReportLocalPose": ("LocalPose", _LOCAL_POSE),
-    "ReportVelocityState": ("Velocity", _VELOCITY),
-    "ReportAccelerationState": ("AccelerationState", _ACCELERATION),
-}
+#: SetVelocityCommand / ReportVelocityCommand CommandType
+COMMAND_TYPES = {0: "CURRENT", 1: "MAXIMUM", 2: "MINIMUM", 3: "DEFAULT"}
+#: SetAccelerationLimit / ReportAccelerationLimit CommandType
+LIMITS = {1: "MAXIMUM", 2: "MINIMUM"}
 
-#: (DDS sample field, SetWrenchEffort field, lowest, highest)
-_WRENCH = tuple(
-    (f"{kind}_{axis}", f"{kind}_effort_{axis}", low, 100.0)
-    for kind, low in (("propulsive_linear", -100.0), ("propulsive_rotational", -100.0),
-                      ("resistive_linear", 0.0), ("resistive_rotational", 0.0))
-    for axis in ("x", "y", "z")
-)
-_WRENCH_STOP = {jaus: 0.0 for dds, jaus, _, _ in _WRENCH if dds.startswith("propulsive")}
-
-#: (DDS sample field, SetVelocityCommand field, limit)
-_VELOCITY_CMD = (
-    ("vx", "velocity_x", 327.67), ("vy", "velocity_y", 327.67), ("vz", "velocity_z", 327.67),
-    ("roll_rate", "roll_rate", 32.767), ("pitch_rate", "pitch_rate", 32.767),
-    ("yaw_rate", "yaw_rate", 32.767),
-)
+VELOCITY_LIMIT = 327.67           # m/s, SetVelocityCommand velocity_x/y/z
+RATE_LIMIT = 32.767               # rad/s, SetVelocityCommand rates
+ACCELERATION_LIMIT = 1310.68      # m/s^2, SetAccelerationLimit linear
+ANGULAR_ACCELERATION_LIMIT = 13106.8  # rad/s^2, SetAccelerationLimit angular
 
 
 def _clamp(value: Any, low: float, high: float) -> float:
@@ -88,6 +99,190 @@ def _clamp(value: Any, low: float, high: float) -> float:
         return 0.0
     return max(low, min(high, number))
 
+
+def wrap_angle(value: Any) -> float:
+    """Converter: radians -> the same direction in [-pi, pi] (a heading of 3.5 rad is
+    -2.78 rad, not pi)."""
+    angle = math.remainder(float(value), math.tau)
+    return max(-math.pi, min(math.pi, angle))
+
+
+def _is_local(value: Any) -> bool:
+    """LOCAL"""
+    return str(value).strip().upper() in ("LOCAL", "1")
+
+
+def _is_global(value: Any) -> bool:
+    """GLOBAL (the default)"""
+    return not _is_local(value)
+
+
+def _measured(*pairs: tuple[str, str], note: str = "") -> dict[str, From]:
+    """DDS member <- JAUS field, as a float (NaN when the vehicle left it out)."""
+    return {dds: From(jaus, convert=number, note=note) for dds, jaus in pairs}
+
+
+_GLOBAL_POSE = _measured(("latitude", "latitude"), ("longitude", "longitude"),
+                         ("altitude", "altitude"), ("roll", "roll"), ("pitch", "pitch"),
+                         ("yaw", "yaw"))
+_LOCAL_POSE = _measured(("x", "x"), ("y", "y"), ("z", "z"), ("roll", "roll"),
+                        ("pitch", "pitch"), ("yaw", "yaw"))
+_VELOCITY = _measured(("vx", "velocity_x"), ("vy", "velocity_y"), ("vz", "velocity_z"),
+                      ("roll_rate", "roll_rate"), ("pitch_rate", "pitch_rate"),
+                      ("yaw_rate", "yaw_rate"))
+_ACCELERATION = _measured(("ax", "acceleration_x"), ("ay", "acceleration_y"),
+                          ("az", "acceleration_z"), ("roll_acceleration", "roll_acceleration"),
+                          ("pitch_acceleration", "pitch_acceleration"),
+                          ("yaw_acceleration", "yaw_acceleration"))
+#: (DDS member, JAUS field, lowest, highest) of the twelve efforts, percent
+_WRENCH = tuple(
+    (f"{kind}_{axis}", f"{kind}_effort_{axis}", low, 100.0)
+    for kind, low in (("propulsive_linear", -100.0), ("propulsive_rotational", -100.0),
+                      ("resistive_linear", 0.0), ("resistive_rotational", 0.0))
+    for axis in ("x", "y", "z")
+)
+_WRENCH_STOP = {jaus: 0.0 for dds, jaus, _, _ in _WRENCH if dds.startswith("propulsive")}
+#: (DDS member, SetVelocityCommand field, limit)
+_VELOCITY_CMD = (
+    ("vx", "velocity_x", VELOCITY_LIMIT), ("vy", "velocity_y", VELOCITY_LIMIT),
+    ("vz", "velocity_z", VELOCITY_LIMIT), ("roll_rate", "roll_rate", RATE_LIMIT),
+    ("pitch_rate", "pitch_rate", RATE_LIMIT), ("yaw_rate", "yaw_rate", RATE_LIMIT),
+)
+_LIMIT_CMD = (
+    ("ax", "acceleration_x", ACCELERATION_LIMIT), ("ay", "acceleration_y", ACCELERATION_LIMIT),
+    ("az", "acceleration_z", ACCELERATION_LIMIT),
+    ("roll_acceleration", "roll_acceleration", ANGULAR_ACCELERATION_LIMIT),
+    ("pitch_acceleration", "pitch_acceleration", ANGULAR_ACCELERATION_LIMIT),
+    ("yaw_acceleration", "yaw_acceleration", ANGULAR_ACCELERATION_LIMIT),
+)
+
+
+def _angle(dds: str) -> Put:
+    return Put(dds, convert=wrap_angle, optional=True, note="rad, wrapped to [-pi, pi]")
+
+
+def _vector(frame: str, height: str) -> dict[str, Any]:
+    """VectorState members of Report{Global,Local}Vector (``height``: altitude or z)."""
+    return {"frame": Const(frame), "speed": From("speed", convert=number, note="m/s"),
+            "heading": From("heading", convert=number, note="rad"),
+            "altitude": From(height, convert=number, note="m") if height == "altitude"
+            else Const(NAN, "GLOBAL only"),
+            "z": From(height, convert=number, note="m") if height == "z"
+            else Const(NAN, "LOCAL only"),
+            "roll": From("roll", convert=number), "pitch": From("pitch", convert=number)}
+
+
+def _set_vector(height: str) -> dict[str, Put]:
+    """Set{Global,Local}Vector fields from a VectorCommand (``height``: altitude or z)."""
+    return {"speed": Put("speed", 0.0, VELOCITY_LIMIT, optional=True, note="m/s"),
+            height: Put(height, -10_000.0, 35_000.0, optional=True, note="m"),
+            "heading": _angle("heading"), "roll": _angle("roll"), "pitch": _angle("pitch")}
+
+
+def _set_pose(local: bool) -> dict[str, Put]:
+    """Set{Global,Local}Pose fields from a PoseCommand."""
+    if local:
+        position = {axis: Put(axis, -100_000.0, 100_000.0, optional=True, note="m")
+                    for axis in ("x", "y", "z")}
+    else:
+        position = {"latitude": Put("latitude", -90.0, 90.0, optional=True, note="deg"),
+                    "longitude": Put("longitude", -180.0, 180.0, optional=True, note="deg"),
+                    "altitude": Put("altitude", -10_000.0, 35_000.0, optional=True,
+                                    note="m")}
+    return {**position,
+            "position_rms": Put("position_rms", 0.0, 100.0, optional=True, note="m"),
+            "roll": _angle("roll"), "pitch": _angle("pitch"), "yaw": _angle("yaw"),
+            "attitude_rms": Put("attitude_rms", 0.0, math.pi, optional=True, note="rad")}
+
+
+def _current(sample: Mapping[str, Any]) -> int:
+    return 0
+
+
+def _limit_type(sample: Mapping[str, Any]) -> int:
+    value = code_of(LIMITS)(sample.get("limit") or "MAXIMUM")
+    if value not in LIMITS:
+        raise ValueError(f"limit {value!r} is not one of {', '.join(LIMITS.values())}")
+    return value
+
+
+#: driver and sensor settings: translated when they arrive, asked for (events) only when
+#: the profile lists them in ``[translators.mobility] extra_reports`` (radio links are slow)
+OPTIONAL_REPORTS = ("ReportWrenchEffort", "ReportVelocityCommand", "ReportGlobalVector",
+                    "ReportLocalVector", "ReportAccelerationLimit", "ReportGeomagneticProperty")
+_OPT_IN = "asked for when listed in [translators.mobility] extra_reports"
+
+REPORT_RULES = (
+    ReportRule("ReportGlobalPose", "GlobalPose", _GLOBAL_POSE, query="QueryGlobalPose",
+               service=GLOBAL_POSE_SENSOR, query_fields={"presence_vector": ALL_FIELDS},
+               rate=5.0),
+    ReportRule("ReportLocalPose", "LocalPose", _LOCAL_POSE, query="QueryLocalPose",
+               service=LOCAL_POSE_SENSOR, query_fields={"presence_vector": ALL_FIELDS},
+               rate=5.0),
+    ReportRule("ReportVelocityState", "Velocity", _VELOCITY, query="QueryVelocityState",
+               service=MOBILITY + "VelocityStateSensor",
+               query_fields={"presence_vector": ALL_FIELDS}, rate=5.0),
+    ReportRule("ReportAccelerationState", "AccelerationState", _ACCELERATION,
+               query="QueryAccelerationState", service=MOBILITY + "AccelerationStateSensor",
+               query_fields={"presence_vector": ALL_FIELDS}, rate=1.0),
+    ReportRule("ReportWrenchEffort", "WrenchEffortState",
+               _measured(*((dds, jaus) for dds, jaus, _, _ in _WRENCH), note="percent"),
+               query="QueryWrenchEffort", service=PRIMITIVE_DRIVER,
+               query_fields={"presence_vector": ALL_EFFORTS}, rate=1.0,
+               doc=f"what the primitive driver applies; {_OPT_IN}"),
+    ReportRule("ReportVelocityCommand", "VelocityCommandState",
+               {"command_type": From("command_type", convert=label(COMMAND_TYPES)),
+                **_measured(*((dds, jaus) for dds, jaus, _ in _VELOCITY_CMD))},
+               query="QueryVelocityCommand", service=VELOCITY_DRIVER,
+               query_fields={"presence_vector": ALL_SIX, "command_type": 0}, rate=1.0,
+               doc=f"the velocity the driver is holding; {_OPT_IN}"),
+    ReportRule("ReportGlobalVector", "VectorState", _vector("GLOBAL", "altitude"),
+               query="QueryGlobalVector", service=GLOBAL_VECTOR_DRIVER,
+               query_fields={"presence_vector": ALL_VECTOR}, rate=1.0, doc=_OPT_IN),
+    ReportRule("ReportLocalVector", "VectorState", _vector("LOCAL", "z"),
+               query="QueryLocalVector", service=LOCAL_VECTOR_DRIVER,
+               query_fields={"presence_vector": ALL_VECTOR}, rate=1.0, doc=_OPT_IN),
+    ReportRule("ReportAccelerationLimit", "AccelerationLimit",
+               {"limit": From("command_type", convert=label(LIMITS)),
+                **_measured(*((dds, jaus) for dds, jaus, _ in _LIMIT_CMD))},
+               query="QueryAccelerationLimit", service=VELOCITY_DRIVER,
+               query_fields={"presence_vector": ALL_SIX, "command_type": 1}, rate=0.2,
+               on_change=True,
+               doc=f"the maximum is asked for, a minimum is taken if sent; {_OPT_IN}"),
+    ReportRule("ReportGeomagneticProperty", "GeomagneticProperty",
+               {"magnetic_variation": From("magnetic_variation", convert=number,
+                                           note="rad, east positive")},
+               query="QueryGeomagneticProperty", service=GLOBAL_POSE_SENSOR, rate=0.1,
+               on_change=True, doc=_OPT_IN),
+)
+
+COMMAND_RULES = (
+    Cmd("VelocityCommand", "SetVelocityCommand", VELOCITY_DRIVER, "velocity",
+        {"command_type": Build("", _current, "= 0, the current command"),
+         **{jaus: Put(dds, -limit, limit) for dds, jaus, limit in _VELOCITY_CMD}},
+        stop={"command_type": 0, **{jaus: 0.0 for _, jaus, _ in _VELOCITY_CMD}},
+        doc="motion: dead-man stop = all zero"),
+    Cmd("WrenchEffortCommand", "SetWrenchEffort", PRIMITIVE_DRIVER, "wrench_effort",
+        {jaus: Put(dds, low, high, optional=True, note="percent")
+         for dds, jaus, low, high in _WRENCH},
+        stop=_WRENCH_STOP, doc="motion: dead-man stop = propulsive efforts zero"),
+    Cmd("VectorCommand", "SetGlobalVector", GLOBAL_VECTOR_DRIVER, "vector",
+        _set_vector("altitude"), when={"frame": _is_global}, stop={"speed": 0.0},
+        doc="motion: dead-man stop = speed zero"),
+    Cmd("VectorCommand", "SetLocalVector", LOCAL_VECTOR_DRIVER, "vector",
+        _set_vector("z"), when={"frame": _is_local}, stop={"speed": 0.0},
+        doc="motion: dead-man stop = speed zero"),
+    Cmd("AccelerationLimitCommand", "SetAccelerationLimit", VELOCITY_DRIVER,
+        "acceleration_limit",
+        {"command_type": Build("limit", _limit_type, "MAXIMUM = 1, MINIMUM = 2"),
+         **{jaus: Put(dds, -limit, limit, optional=True)
+            for dds, jaus, limit in _LIMIT_CMD}}),
+    Cmd("PoseCommand", "SetGlobalPose", GLOBAL_POSE_SENSOR, "pose_reset",
+        _set_pose(local=False), when={"frame": _is_global},
+        doc="resets the sensor's estimate"),
+    Cmd("PoseCommand", "SetLocalPose", LOCAL_POSE_SENSOR, "pose_reset",
+        _set_pose(local=True), when={"frame": _is_local}, doc="resets the sensor's estimate"),
+)
 
 # -- waypoint missions (WaypointPlan -> List Manager / waypoint drivers -> MissionStatus) --
 
@@ -287,8 +482,9 @@ class WaypointMissions:
             name, fields = "ExecuteList", {"speed": _clamp(self._speed(mission), 0.0, 327.67),
                                            "element_uid": 1}
             mission.state = "EXECUTING"
+        # ExecuteList is also a manipulator message: encode mobility's
         return Command(vehicle_id, mission.operator_id, "waypoint", name, fields,
-                       mission.service)
+                       mission.service, service_set="mobility")
 
     def _waypoint(self, vehicle_id: str, index: int) -> Command:
         mission = self.missions[vehicle_id]
@@ -320,96 +516,95 @@ def _distance(target: Mapping[str, Any], pose: Mapping[str, Any], local: bool) -
     return _EARTH_RADIUS * math.hypot(dlat, dlon * math.cos(lat))
 
 
-class MobilityTranslator(Translator):
-    """Mobility service set (AS6009) <-> pose, velocity and drive topics."""
+class MobilityTranslator(RuleTranslator):
+    """Mobility service set (AS6009) <-> pose, velocity, driver and mission topics.
+
+    The rule tables (:data:`REPORT_RULES`, :data:`COMMAND_RULES`) declare the plain
+    mappings; waypoint missions (:class:`WaypointMissions`) keep per-vehicle state and are
+    hooked into :meth:`on_message` / :meth:`on_sample` around them.
+    """
 
     name = "mobility"
-    messages = (*_REPORTS, *MISSION_MESSAGES)
-    reports = (
-        ReportSpec("ReportGlobalPose", "QueryGlobalPose", MOBILITY + "GlobalPoseSensor",
-                   {"presence_vector": ALL_FIELDS}, rate=5.0),
-        ReportSpec("ReportLocalPose", "QueryLocalPose", MOBILITY + "LocalPoseSensor",
-                   {"presence_vector": ALL_FIELDS}, rate=5.0),
-        ReportSpec("ReportVelocityState", "QueryVelocityState", MOBILITY + "VelocityStateSensor",
-                   {"presence_vector": ALL_FIELDS}, rate=5.0),
-        ReportSpec("ReportAccelerationState", "QueryAccelerationState",
-                   MOBILITY + "AccelerationStateSensor", {"presence_vector": ALL_FIELDS},
-                   rate=1.0),
-        *MISSION_REPORTS,
-    )
-    publishes = ("GlobalPose", "LocalPose", "Velocity", "AccelerationState", "MissionStatus")
-    subscribes = ("WrenchEffortCommand", "VelocityCommand", "WaypointPlan")
-    # Holding a vehicle means holding every component that can move it, waypoint list
-    # drivers included, so nothing else drives it meanwhile.
-    controlled_services = (
-        PRIMITIVE_DRIVER,
-        VELOCITY_DRIVER,
-        MOBILITY + "LocalWaypointListDriver",
-        MOBILITY + "GlobalWaypointListDriver",
-        MOBILITY + "LocalWaypointDriver",
-        MOBILITY + "GlobalWaypointDriver",
-    )
+    report_rules = REPORT_RULES
+    command_rules = COMMAND_RULES
+    extra_messages = MISSION_MESSAGES
+    extra_publishes = ("MissionStatus",)
+
+    @classmethod
+    def _derive(cls) -> None:
+        super()._derive()
+        cls.reports = (*(s for s in cls.reports if s.report not in OPTIONAL_REPORTS),
+                       *MISSION_REPORTS)
+        cls.subscribes = (*cls.subscribes, "WaypointPlan")
+        # Holding a vehicle means holding every component that can move it, waypoint
+        # list drivers included, so nothing else drives it meanwhile.
+        cls.controlled_services = tuple(dict.fromkeys((
+            *cls.controlled_services, LOCAL_LIST_DRIVER, GLOBAL_LIST_DRIVER,
+            LOCAL_WAYPOINT_DRIVER, GLOBAL_WAYPOINT_DRIVER)))
 
     def __init__(self) -> None:
+        super().__init__()
         self.missions = WaypointMissions()
+
+    def configure(self, options: Mapping[str, Any], source: str = "") -> None:
+        """Take the profile's ``[translators.mobility]`` table: ``extra_reports``, the
+        :data:`OPTIONAL_REPORTS` to ask for too (``["*"]`` for all of them).
+
+        Raises ConfigError naming every bad key or name.
+        """
+        where = "translators.mobility"
+        problems: list[tuple[str, str, str]] = [
+            (source, f"{where}.{key}", "unknown key (known: extra_reports)")
+            for key in options if key != "extra_reports"]
+        wanted = options.get("extra_reports", [])
+        if not isinstance(wanted, list) or not all(isinstance(n, str) for n in wanted):
+            problems.append((source, f"{where}.extra_reports", "expected a list of report "
+                                                               "names"))
+            wanted = []
+        for i, name in enumerate(wanted):
+            if name != "*" and name not in OPTIONAL_REPORTS:
+                problems.append((source, f"{where}.extra_reports[{i}]",
+                                 f"{name!r} is not one of {', '.join(OPTIONAL_REPORTS)}"))
+        if problems:
+            raise ConfigError(problems)
+        chosen = set(OPTIONAL_REPORTS) if "*" in wanted else set(wanted)
+        # instance attribute: this deployment's choice
+        self.reports = (*type(self).reports, *(  # type: ignore[misc]
+            ReportSpec(r.message, r.query, r.service, dict(r.query_fields), r.rate, r.on_change)
+            for r in self.report_rules if r.message in chosen))
 
     def on_message(
         self, name: str, fields: Mapping[str, Any], ctx: TranslatorContext
     ) -> list[Action]:
-        if ctx.vehicle is not None and name in MISSION_MESSAGES:
-            return self.missions.on_message(name, fields, ctx)
-        if ctx.vehicle is not None and name in ("ReportGlobalPose", "ReportLocalPose"):
-            return [*self._publish(name, fields, ctx), *self.missions.on_pose(name, fields, ctx)]
-        return self._publish(name, fields, ctx)
-
-    def _publish(
-        self, name: str, fields: Mapping[str, Any], ctx: TranslatorContext
-    ) -> list[Action]:
-        if ctx.vehicle is None or name not in _REPORTS:
+        if ctx.vehicle is None:
             return []
-        topic, mapping = _REPORTS[name]
-        sample: dict[str, Any] = {"vehicle_id": ctx.vehicle.vehicle_id}
-        for jaus_name, dds_name in mapping:
-            value = fields.get(jaus_name)
-            sample[dds_name] = float(value) if value is not None else math.nan
-        sample["timestamp_ms"] = ctx.timestamp_ms
-        return [Publish(topic, sample)]
+        if name in MISSION_MESSAGES:
+            return self.missions.on_message(name, fields, ctx)
+        actions = super().on_message(name, fields, ctx)
+        if name in ("ReportGlobalPose", "ReportLocalPose"):
+            actions.extend(self.missions.on_pose(name, fields, ctx))
+        return actions
 
     def on_sample(
         self, topic: str, sample: Mapping[str, Any], ctx: TranslatorContext
     ) -> list[Action]:
-        vehicle_id = str(sample.get("vehicle_id", ""))
-        operator_id = str(sample.get("operator_id", ""))
         if topic == "WaypointPlan":
             return self.missions.on_plan(sample, ctx)
-        if topic == "WrenchEffortCommand":
-            fields = {jaus: _clamp(sample[dds], low, high) for dds, jaus, low, high in _WRENCH
-                      if sample.get(dds) is not None}
-            if not fields:
-                return []
-            return [Command(vehicle_id, operator_id, "wrench_effort", "SetWrenchEffort",
-                            fields, PRIMITIVE_DRIVER, stop=dict(_WRENCH_STOP))]
-        if topic == "VelocityCommand":
-            fields = {"command_type": 0}
-            fields.update({jaus: _clamp(sample.get(dds), -limit, limit)
-                           for dds, jaus, limit in _VELOCITY_CMD})
-            stop = {**dict.fromkeys(fields, 0.0), "command_type": 0}
-            return [Command(vehicle_id, operator_id, "velocity", "SetVelocityCommand",
-                            fields, VELOCITY_DRIVER, stop=stop)]
-        return []
+        return super().on_sample(topic, sample, ctx)
+
+    def command(self, rule: Cmd, sample: Mapping[str, Any]) -> Command | None:
+        """As the rule says, except that a sample setting nothing (every optional member
+        absent) gives no command: the vehicle would be told nothing."""
+        puts = [spec for spec in rule.fields.values() if isinstance(spec, Put)]
+        if puts and all(p.optional for p in puts) and not any(
+                _is_set(sample.get(p.dds)) for p in puts):
+            return None
+        return super().command(rule, sample)
 
     def describe(self) -> list[dict[str, Any]]:
-        """Mapping-table rows (``edge-vis mappings``), from the tables above."""
+        """Mapping-table rows (``edge-vis mappings``): the rule tables, then missions."""
+        rows = super().describe()
         row = _row
-        rows = [row("jaus->dds", name, topic, [(jaus, dds, "") for jaus, dds in mapping],
-                    next((s.query for s in self.reports if s.report == name), ""))
-                for name, (topic, mapping) in _REPORTS.items()]
-        rows.append(row("dds->jaus", "SetWrenchEffort", "WrenchEffortCommand",
-                        [(jaus, dds, f"clamped to [{low}, {high}]")
-                         for dds, jaus, low, high in _WRENCH]))
-        rows.append(row("dds->jaus", "SetVelocityCommand", "VelocityCommand",
-                        [(jaus, dds, f"clamped to +-{limit}")
-                         for dds, jaus, limit in _VELOCITY_CMD]))
         plan = [("latitude/longitude/altitude | x/y/z", "waypoints[]", "element data"),
                 ("waypoint_tolerance", "waypoints[].tolerance", "when > 0")]
         for name, note in (
@@ -439,6 +634,10 @@ class MobilityTranslator(Translator):
                      "ReportTravelSpeed": "QueryTravelSpeed"}.get(name, "")
             rows.append(row("jaus->dds", name, "MissionStatus", fields, query))
         return rows
+
+
+def _is_set(value: Any) -> bool:
+    return value is not None and not (isinstance(value, float) and math.isnan(value))
 
 
 def _row(direction: str, message: str, topic: str, fields: list[tuple[str, str, str]],

@@ -105,7 +105,6 @@ class UuvTranslator(RuleTranslator):
                    stamp=False, doc="announces the image; the bulk channel fetches it"),
     )
     extra_messages = ("VendorHello",)
-    shared_publishes = ("ImageProduct",)
 
     def on_message(
         self, name: str, fields: Mapping[str, Any], ctx: TranslatorContext

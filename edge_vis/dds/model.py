@@ -758,6 +758,150 @@ class PlatformCommand(IdlStruct, typename="edge_vis::PlatformCommand"):
     platform_mode: str = ""
 
 
+# --------------------------------------------------------------------------- mobility extras
+
+
+@dataclass
+class WrenchEffortState(IdlStruct, typename="edge_vis::WrenchEffortState"):
+    """The effort the primitive driver is applying, percent: propulsive -100..100,
+    resistive 0..100 (NaN = not reported)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    propulsive_linear_x: float64 = NAN
+    propulsive_linear_y: float64 = NAN
+    propulsive_linear_z: float64 = NAN
+    propulsive_rotational_x: float64 = NAN
+    propulsive_rotational_y: float64 = NAN
+    propulsive_rotational_z: float64 = NAN
+    resistive_linear_x: float64 = NAN
+    resistive_linear_y: float64 = NAN
+    resistive_linear_z: float64 = NAN
+    resistive_rotational_x: float64 = NAN
+    resistive_rotational_y: float64 = NAN
+    resistive_rotational_z: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class VelocityCommandState(IdlStruct, typename="edge_vis::VelocityCommandState"):
+    """A velocity the velocity state driver holds: ``command_type`` CURRENT (what it is
+    driving now), MAXIMUM, MINIMUM or DEFAULT; m/s and rad/s in the vehicle frame."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    command_type: str
+    key("command_type")
+    vx: float64 = NAN
+    vy: float64 = NAN
+    vz: float64 = NAN
+    roll_rate: float64 = NAN
+    pitch_rate: float64 = NAN
+    yaw_rate: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class VectorState(IdlStruct, typename="edge_vis::VectorState"):
+    """The vector a vector driver is steering to: ``frame`` GLOBAL (``altitude``, m above
+    the ellipsoid) or LOCAL (``z``, m); heading, roll, pitch in rad; speed in m/s."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    frame: str
+    key("frame")
+    speed: float64 = NAN
+    heading: float64 = NAN
+    altitude: float64 = NAN
+    z: float64 = NAN
+    roll: float64 = NAN
+    pitch: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class VectorCommand(IdlStruct, typename="edge_vis::VectorCommand"):
+    """Steer by vector: heading (rad), speed (m/s) and altitude (GLOBAL, m) or z (LOCAL, m);
+    an absent member is left unchanged."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    frame: Frame = Frame.GLOBAL
+    speed: Optional[float64] = None  # noqa: UP045 (cyclonedds needs Optional)
+    heading: Optional[float64] = None  # noqa: UP045
+    altitude: Optional[float64] = None  # noqa: UP045
+    z: Optional[float64] = None  # noqa: UP045
+    roll: Optional[float64] = None  # noqa: UP045
+    pitch: Optional[float64] = None  # noqa: UP045
+
+
+@dataclass
+class AccelerationLimit(IdlStruct, typename="edge_vis::AccelerationLimit"):
+    """An acceleration limit of the velocity state driver: ``limit`` MAXIMUM or MINIMUM;
+    m/s^2 and rad/s^2 (NaN = not reported)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    limit: str
+    key("limit")
+    ax: float64 = NAN
+    ay: float64 = NAN
+    az: float64 = NAN
+    roll_acceleration: float64 = NAN
+    pitch_acceleration: float64 = NAN
+    yaw_acceleration: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class AccelerationLimitCommand(IdlStruct, typename="edge_vis::AccelerationLimitCommand"):
+    """Set the MAXIMUM or MINIMUM acceleration (m/s^2, rad/s^2); absent = unchanged."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    limit: str = "MAXIMUM"
+    ax: Optional[float64] = None  # noqa: UP045 (cyclonedds needs Optional)
+    ay: Optional[float64] = None  # noqa: UP045
+    az: Optional[float64] = None  # noqa: UP045
+    roll_acceleration: Optional[float64] = None  # noqa: UP045
+    pitch_acceleration: Optional[float64] = None  # noqa: UP045
+    yaw_acceleration: Optional[float64] = None  # noqa: UP045
+
+
+@dataclass
+class GeomagneticProperty(IdlStruct, typename="edge_vis::GeomagneticProperty"):
+    """Magnetic variation (declination) the global pose sensor applies, rad, east positive."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    magnetic_variation: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class PoseCommand(IdlStruct, typename="edge_vis::PoseCommand"):
+    """Reset a pose sensor's estimate: GLOBAL (deg, m) or LOCAL (m) position, attitude (rad),
+    and their RMS uncertainty; an absent member is left unchanged."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    frame: Frame = Frame.GLOBAL
+    latitude: Optional[float64] = None  # noqa: UP045 (cyclonedds needs Optional)
+    longitude: Optional[float64] = None  # noqa: UP045
+    altitude: Optional[float64] = None  # noqa: UP045
+    x: Optional[float64] = None  # noqa: UP045
+    y: Optional[float64] = None  # noqa: UP045
+    z: Optional[float64] = None  # noqa: UP045
+    roll: Optional[float64] = None  # noqa: UP045
+    pitch: Optional[float64] = None  # noqa: UP045
+    yaw: Optional[float64] = None  # noqa: UP045
+    position_rms: Optional[float64] = None  # noqa: UP045
+    attitude_rms: Optional[float64] = None  # noqa: UP045
+
+
 STRUCTS: tuple[type[IdlStruct], ...] = (
     VehicleIdentification,
     VehicleStatus,
@@ -795,5 +939,13 @@ STRUCTS: tuple[type[IdlStruct], ...] = (
     EndEffectorCommand,
     DeviceCommand,
     PlatformCommand,
+    WrenchEffortState,
+    VelocityCommandState,
+    VectorState,
+    VectorCommand,
+    AccelerationLimit,
+    AccelerationLimitCommand,
+    GeomagneticProperty,
+    PoseCommand,
 )
 """Every top-level type of the standard model; each is carried by the topic of its name."""

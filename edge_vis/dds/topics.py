@@ -107,6 +107,14 @@ _STANDARD_KINDS: dict[type[IdlStruct], TopicKind] = {
     model.EndEffectorCommand: TopicKind.COMMAND,
     model.DeviceCommand: TopicKind.COMMAND,
     model.PlatformCommand: TopicKind.COMMAND,
+    model.WrenchEffortState: TopicKind.TELEMETRY,
+    model.VelocityCommandState: TopicKind.STATE,
+    model.VectorState: TopicKind.STATE,
+    model.VectorCommand: TopicKind.COMMAND,
+    model.AccelerationLimit: TopicKind.STATE,
+    model.AccelerationLimitCommand: TopicKind.COMMAND,
+    model.GeomagneticProperty: TopicKind.STATE,
+    model.PoseCommand: TopicKind.COMMAND,
 }
 
 

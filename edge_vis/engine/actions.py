@@ -3,8 +3,9 @@
 The engine never performs anything itself: it returns these from
 :meth:`~edge_vis.engine.engine.Engine.drain_actions` and the runtime carries them out.
 
-* :class:`SendMessage` - encode ``fields`` as message ``name`` through the catalogue and
-  send it to ``destination`` (the router picks the link).
+* :class:`SendMessage` - encode ``fields`` as message ``name`` (of ``service_set`` when
+  two sets use the name) through the catalogue and send it to ``destination`` (the router
+  picks the link).
 * :class:`Publish` - write ``sample`` (a dict) to DDS ``topic``.
 * :class:`ShutdownComplete` - every goodbye message has been emitted (and answered, or
   waited for long enough); the runtime may close links.
@@ -28,12 +29,18 @@ PRIORITY_LOW, PRIORITY_STANDARD, PRIORITY_HIGH, PRIORITY_SAFETY = 0, 1, 2, 3
 
 @dataclass(frozen=True, slots=True)
 class SendMessage:
-    """Send JAUS message ``name`` with decoded ``fields`` to ``destination``."""
+    """Send JAUS message ``name`` with decoded ``fields`` to ``destination``.
+
+    ``service_set`` picks the definition when several message sets use ``name``
+    (``ExecuteList`` is both a mobility and a manipulator message); None means the first
+    one the catalogue holds.
+    """
 
     destination: JausAddress
     name: str
     fields: Mapping[str, Any] = field(default_factory=dict)
     priority: int = PRIORITY_STANDARD
+    service_set: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -53,7 +60,8 @@ class Command:
     (latest wins per vehicle and kind). ``stop`` are the fields of the same message that
     stop the vehicle: when given, the command is a *motion* command: it is refused in
     EMERGENCY/FAILURE and, when the operator's commands of this kind stop for longer
-    than the dead-man timeout, the engine sends ``stop`` itself.
+    than the dead-man timeout, the engine sends ``stop`` itself. ``service_set`` names the
+    message set of ``name`` when two sets use that name (see :class:`SendMessage`).
     """
 
     vehicle_id: str
@@ -64,6 +72,7 @@ class Command:
     service: str
     stop: Mapping[str, Any] | None = None
     priority: int = PRIORITY_STANDARD
+    service_set: str | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -94,7 +94,8 @@ class CommandSlot:
         ):
             return False
         stop = Command(last.vehicle_id, last.operator_id, last.kind, last.name,
-                       dict(last.stop), last.service, last.stop, last.priority)
+                       dict(last.stop), last.service, last.stop, last.priority,
+                       last.service_set)
         self.pending = Pending(stop, now, is_stop=True)
         self.stops += 1
         return True

@@ -759,7 +759,7 @@ class Engine:
                 continue
             destination = vehicle.providers(command.service)[0]
             self._actions.append(SendMessage(destination, command.name, dict(command.fields),
-                                             command.priority))
+                                             command.priority, command.service_set))
             self.counters["commands_sent"] += 1
 
     # == the timer pass ===================================================================

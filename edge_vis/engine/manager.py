@@ -4,10 +4,12 @@ Reads package metadata and imports translator plugins when built with
 :meth:`TranslationManager.from_selection`; routing itself does no I/O.
 
 Every translator declares what it consumes and produces (see
-:mod:`edge_vis.translator`). At start-up the manager checks that no JAUS message, no
-published topic and no subscribed topic is claimed twice, and raises
-:class:`~edge_vis.errors.PluginConflictError` naming both claimants otherwise. The engine
-itself owns the ``ControlRequest`` topic (operator arbitration).
+:mod:`edge_vis.translator`). At start-up the manager checks that no JAUS message and no
+subscribed topic is claimed twice (each must go to exactly one translator), and raises
+:class:`~edge_vis.errors.PluginConflictError` naming both claimants otherwise. Several
+translators may *publish* one topic (still images and ATR images are both image
+products): a DDS topic has many writers, each keyed by its vehicle. The engine itself owns
+the ``ControlRequest`` topic (operator arbitration).
 """
 
 from __future__ import annotations
@@ -36,10 +38,10 @@ class TranslationManager:
         self.translators = tuple(translators)
         self.by_message: dict[str, Translator] = {}
         self.by_topic: dict[str, Translator] = {}
-        self.publishers: dict[str, Translator] = {}
+        #: published topic -> the translators writing it (several may)
+        self.publishers: dict[str, tuple[Translator, ...]] = {}
         claims_message: dict[str, str] = {}
         claims_sub: dict[str, str] = dict.fromkeys(ENGINE_SUBSCRIBES, ENGINE)
-        claims_pub: dict[str, str] = {}
         for tr in self.translators:
             who = _name(tr)
             for message in tr.messages:
@@ -55,8 +57,9 @@ class TranslationManager:
                 _claim(claims_sub, topic, who, "subscribed topic")
                 self.by_topic[topic] = tr
             for topic in tr.publishes:
-                _claim(claims_pub, topic, who, "published topic")
-                self.publishers[topic] = tr
+                writers = self.publishers.get(topic, ())
+                if tr not in writers:
+                    self.publishers[topic] = (*writers, tr)
 
     @classmethod
     def from_selection(cls, selection: TranslatorSelection,

@@ -20,7 +20,9 @@ vehicle is ``name``, ``subsystem`` and ``link``::
     malformed_rate = 0.2                      # malformed frames per second
 
 A ``uuv`` does not implement JAUS Discovery: it announces itself with the vendor
-``VendorHello`` message and reports ocean environment and ATR image notices unsolicited.
+``VendorHello`` message and reports ocean environment and ATR image notices unsolicited;
+with ``atr_dir`` set, each announced ATR image is also written there as ``atr-<id>.png``
+(ready for ``edge-vis send-image``).
 Errors are collected and raised together as one :class:`~edge_vis.errors.ConfigError`.
 """
 
@@ -84,6 +86,7 @@ class VehicleSpec:
     environment_period: float = 1.0
     atr_period: float = 15.0
     bulk_image_port: int = 0
+    atr_dir: str = ""
     faults: FaultSpec = field(default_factory=FaultSpec)
     seed: int = 0
 
@@ -221,12 +224,13 @@ def _vehicle(table: Any, index: int, seed: int, problems: _Problems) -> VehicleS
         "name", "kind", "subsystem", "node", "link", "pty_link", "pty_path_file", "baud",
         "origin", "heading", "max_speed", "max_yaw_rate", "control_timeout", "event_timeout",
         "default_authority", "max_event_rate", "init_time", "image_width", "image_height",
-        "hello_period", "environment_period", "atr_period", "bulk_image_port", "faults",
+        "hello_period", "environment_period", "atr_period", "bulk_image_port", "atr_dir",
+        "faults",
     }
     for key in table:
         if key not in known:
             problems.add(f"{path}.{key}", "unknown key")
-    for key in ("pty_link", "pty_path_file"):
+    for key in ("pty_link", "pty_path_file", "atr_dir"):
         if not isinstance(table.get(key, ""), str):
             problems.add(f"{path}.{key}", "must be a path string")
     return VehicleSpec(
@@ -237,6 +241,7 @@ def _vehicle(table: Any, index: int, seed: int, problems: _Problems) -> VehicleS
         node=_number(table, "node", 1, path, problems, low=1, high=254, integer=True),
         pty_link=str(table.get("pty_link", "")),
         pty_path_file=str(table.get("pty_path_file", "")),
+        atr_dir=str(table.get("atr_dir", "")),
         baud=_number(table, "baud", 57600, path, problems, low=300, high=4_000_000, integer=True),
         origin=origin,
         heading=_number(table, "heading", 0.0, path, problems, low=-3.1416, high=3.1416),

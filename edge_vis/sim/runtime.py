@@ -191,6 +191,8 @@ class VehicleEndpoint:
         return seq
 
     def _send(self, send: Send) -> None:
+        if send.name == "ReportAtrImageAvailable" and self.spec.atr_dir:
+            self._write_atr_image(int(send.fields["image_id"]))
         try:
             payload = self.catalogue.encode(send.name, send.fields)
         except EncodeError as exc:
@@ -214,6 +216,20 @@ class VehicleEndpoint:
         if len(pieces) > 1:
             self.counters["large_data_sets_out"] += 1
         self._route(pieces, send.destination, send.corrupt)
+
+    def _write_atr_image(self, image_id: int) -> None:
+        """Put the announced image where a bulk sender can pick it up (write, then rename)."""
+        assert self.vehicle is not None
+        folder = Path(self.spec.atr_dir)
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            part = folder / f".atr-{image_id}.png.part"
+            part.write_bytes(self.vehicle.atr_image(image_id))
+            part.replace(folder / f"atr-{image_id}.png")
+        except OSError as exc:
+            self.counters["atr_write_errors"] += 1
+            log.error("%s: cannot write ATR image %d to %s: %s", self.name, image_id, folder,
+                      exc)
 
     def _route(self, packets: list[Packet], destination: JausAddress, corrupt: str) -> None:
         raise NotImplementedError

@@ -31,7 +31,6 @@ import hashlib
 import logging
 import math
 import random
-import time
 from collections import Counter
 from collections.abc import Callable
 from typing import Any
@@ -40,12 +39,13 @@ from edge_vis.catalogue import Catalogue, Message, default_catalogue
 from edge_vis.errors import DecodeError, EncodeError
 from edge_vis.jaus.address import BROADCAST, JausAddress
 from edge_vis.sim import components as svc
+from edge_vis.sim import discovery
 from edge_vis.sim.actions import Action, Restarted, Send
 from edge_vis.sim.components import ComponentSpec
 from edge_vis.sim.events import EVERY_CHANGE, PERIODIC, EventTable, Subscription
-from edge_vis.sim.images import camera_frame, frame_pixels, png_grey
-from edge_vis.sim.kinematics import Motion, clamp, wrap_angle
+from edge_vis.sim.kinematics import Motion, clamp
 from edge_vis.sim.profile import VehicleSpec
+from edge_vis.sim.sensors import Sensors
 from edge_vis.sim.waypoints import SET_GLOBAL_WAYPOINT, WaypointList
 
 log = logging.getLogger(__name__)
@@ -65,10 +65,6 @@ CONTROL_RELEASED = 0
 # RejectEventRequest codes
 PERIODIC_UNSUPPORTED, CONNECTION_REFUSED, INVALID_SETUP, MESSAGE_UNSUPPORTED, INVALID_ID = (
     1, 3, 4, 5, 6)
-
-VEHICLE_TYPE = 10001
-NODE_TYPE = 40001
-COMPONENT_TYPE = 60001
 
 #: malformed-frame defects the adapter knows how to make
 CORRUPTIONS = ("truncated", "bad_size", "bad_body", "bad_version")
@@ -115,7 +111,8 @@ class SimVehicle:
         self.wall_offset = wall_offset
         self.rng = random.Random(spec.seed)
         self.components: dict[JausAddress, Component] = {}
-        for cspec in svc.layout(spec.kind):
+        self.layout = svc.layout(spec.kind)
+        for cspec in self.layout:
             addr = svc.address(spec.subsystem, spec.node, cspec)
             self.components[addr] = Component(cspec, addr, spec)
         self.motion = Motion(yaw=spec.heading, max_speed=spec.max_speed,
@@ -139,8 +136,8 @@ class SimVehicle:
                                   if uuv and spec.environment_period > 0 else math.inf)
         self._next_atr = start + spec.atr_period if uuv and spec.atr_period > 0 else math.inf
         self.atr_images: dict[int, bytes] = {}
-        self._image_cache: tuple[int, bytes] | None = None
-        self._scan_cache: tuple[float, list[dict[str, Any]]] | None = None
+        self.sensors = Sensors(spec, self.motion, wall_offset)
+        self.sensors.t = start
         self.last_client: JausAddress | None = None
         self._unsupported_seen: set[tuple[str, JausAddress]] = set()
 
@@ -208,7 +205,7 @@ class SimVehicle:
             self._next_environment = now + self.spec.environment_period
             comp = self._first(svc.OCEAN_ENVIRONMENT)
             if comp is not None:
-                fields = self._report_ocean_environment(comp, {"presence_vector": 0xFF})
+                fields = self.sensors.ocean_environment({})
                 out.append(Send(comp.address, BROADCAST, "ReportOceanEnvironment", fields))
         if now >= self._next_atr:
             self._next_atr = now + self.spec.atr_period
@@ -218,6 +215,8 @@ class SimVehicle:
 
     def next_deadline(self) -> float | None:
         """When :meth:`on_timer` next has something to do."""
+        if self.down:  # silent: only the model and the end of the drop-out matter
+            return min(self._physics_time + DT, self._dropout_end)
         times = [self._physics_time + DT, self._dropout_start, self._dropout_end,
                  self._next_malformed, self._next_hello, self._next_environment, self._next_atr]
         for comp in self.components.values():
@@ -245,6 +244,7 @@ class SimVehicle:
             self._physics_time += DT
             self.waypoints.steer(self.motion, self.spec.origin)
             self.motion.step(DT)
+            self.sensors.t = self._physics_time
         if self._init_done_at <= now:
             self._init_done_at = math.inf
             if not self.spec.faults.jts_example:
@@ -606,84 +606,6 @@ class SimVehicle:
         keep = {name for bit, name in enumerate(optional) if pv >> bit & 1}
         return {k: v for k, v in body.items() if k not in optional or k in keep}
 
-    def _time_stamp(self) -> dict[str, int]:
-        wall = self._physics_time + self.wall_offset
-        t = time.gmtime(wall)
-        return {"milliseconds": int((wall % 1.0) * 1000) % 1000, "seconds": min(t.tm_sec, 59),
-                "minutes": t.tm_min, "hour": t.tm_hour, "day": t.tm_mday}
-
-    def _depth(self) -> float:
-        return 20.0 + 5.0 * math.sin(self._physics_time / 60.0) if self.spec.kind == "uuv" else 0.0
-
-    def _report_identification(self, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
-        query_type = fields["query_type"]
-        if query_type == 3:
-            return {"query_type": 3, "type": NODE_TYPE,
-                    "identification": f"{self.name} node {self.spec.node}"}
-        if query_type == 4:
-            return {"query_type": 4, "type": COMPONENT_TYPE, "identification": comp.spec.name}
-        return {"query_type": query_type, "type": VEHICLE_TYPE, "identification": self.name}
-
-    def _report_configuration(self, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
-        return {"node_list": [{
-            "node_rec": {"node_id": self.spec.node},
-            "component_list": [{"component_id": c.address.component, "instance_id": 0}
-                               for c in self.components.values()],
-        }]}
-
-    def _services_of(self, node_filter: list[dict[str, Any]]) -> list[dict[str, Any]]:
-        wanted: set[int] | None = None
-        if node_filter:
-            wanted = set()
-            for node in node_filter:
-                if node["node_rec"]["node_id"] not in (255, self.spec.node):
-                    continue
-                for c in node["component_list"]:
-                    cid = c["component_id"]
-                    if cid == 255:
-                        wanted = None
-                        break
-                    wanted.add(cid)
-                if wanted is None:
-                    break
-            else:
-                if not wanted:
-                    return []
-        comps = [c for c in self.components.values()
-                 if wanted is None or c.address.component in wanted]
-        return [{
-            "node_rec": {"node_id": self.spec.node},
-            "component_list": [{
-                "component_rec": {"component_id": c.address.component, "instance_id": 0},
-                "service_list": [{"uri": uri, "major_version_number": version_of[0],
-                                  "minor_version_number": version_of[1]}
-                                 for uri in c.spec.services
-                                 for version_of in (svc.version_of(uri),)],
-            } for c in comps],
-        }] if comps else []
-
-    def _report_services(self, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
-        return {"node_list": self._services_of(fields.get("node_list", []))}
-
-    def _report_service_list(self, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
-        out = []
-        for sub in fields.get("subsystem_list", []):
-            if sub["subsystem_rec"]["subsystem_id"] not in (65535, self.spec.subsystem):
-                continue
-            nodes = self._services_of(sub["node_list"])
-            filters = [c.get("search_filter", "") for n in sub["node_list"]
-                       for c in n["component_list"] if c.get("search_filter")]
-            if filters:
-                for node in nodes:
-                    for c in node["component_list"]:
-                        c["service_list"] = [s for s in c["service_list"]
-                                             if any(f in s["uri"] for f in filters)]
-                    node["component_list"] = [c for c in node["component_list"]
-                                              if c["service_list"]]
-            out.append({"subsystem_rec": {"subsystem_id": self.spec.subsystem},
-                        "node_list": nodes})
-        return {"subsystem_list": out}
-
     def _report_control(self, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
         c = comp.controller
         return {"subsystem_id": c.subsystem if c else 0, "node_id": c.node if c else 0,
@@ -692,25 +614,6 @@ class SimVehicle:
 
     def _report_status(self, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
         return {"status": comp.state if comp.state is not None else STANDBY, "reserved": 0}
-
-    def _report_global_pose(self, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
-        lat, lon = self.spec.origin.to_geodetic(self.motion.x, self.motion.y)
-        return {"latitude": clamp(lat, -90, 90), "longitude": clamp(lon, -180, 180),
-                "altitude": clamp(self.spec.origin.altitude - self._depth(), -10000, 35000),
-                "position_rms": 0.5, "roll": 0.0, "pitch": 0.0, "yaw": wrap_angle(self.motion.yaw),
-                "attitude_rms": 0.05, "time_stamp": self._time_stamp()}
-
-    def _report_local_pose(self, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
-        return {"x": clamp(self.motion.x, -1e5, 1e5), "y": clamp(self.motion.y, -1e5, 1e5),
-                "z": self._depth(), "position_rms": 0.5, "roll": 0.0, "pitch": 0.0,
-                "yaw": wrap_angle(self.motion.yaw), "attitude_rms": 0.05,
-                "time_stamp": self._time_stamp()}
-
-    def _report_velocity_state(self, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
-        return {"velocity_x": clamp(self.motion.speed, -327, 327), "velocity_y": 0.0,
-                "velocity_z": 0.0, "velocity_rms": 0.1, "roll_rate": 0.0, "pitch_rate": 0.0,
-                "yaw_rate": clamp(self.motion.yaw_rate, -32, 32), "rate_rms": 0.01,
-                "time_stamp": self._time_stamp()}
 
     def _report_wrench_effort(self, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
         return dict(self.effort)
@@ -733,117 +636,6 @@ class SimVehicle:
 
     def _report_travel_speed(self, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
         return {"speed": clamp(self.waypoints.travel_speed, 0, 327.67)}
-
-    def _scan(self) -> list[dict[str, Any]]:
-        """A 181-beam scan of a walled yard (radius 40 m) with two posts in it."""
-        if self._scan_cache is not None and self._scan_cache[0] == self._physics_time:
-            return self._scan_cache[1]
-        m = self.motion
-        posts = ((15.0, 5.0, 1.0), (-8.0, 12.0, 1.5))
-        points = []
-        for i in range(181):
-            bearing = math.radians(i - 90)
-            heading = m.yaw + bearing
-            dx, dy = math.cos(heading), math.sin(heading)
-            # distance to the circular wall: solve |p + t d| = R
-            b = m.x * dx + m.y * dy
-            c = m.x * m.x + m.y * m.y - 40.0 ** 2
-            rng = -b + math.sqrt(max(0.0, b * b - c))
-            for px, py, pr in posts:
-                ox, oy = px - m.x, py - m.y
-                t = ox * dx + oy * dy
-                miss = (ox - t * dx) ** 2 + (oy - t * dy) ** 2
-                if t > 0 and miss < pr * pr:
-                    rng = min(rng, t - math.sqrt(pr * pr - miss))
-            points.append({"range": clamp(rng, 0.0, 1e6), "bearing": bearing,
-                           "inclination": 0.0})
-        self._scan_cache = (self._physics_time, points)
-        return points
-
-    def _report_range_sensor_data(self, comp: Component,
-                                  fields: dict[str, Any]) -> dict[str, Any]:
-        out = []
-        for q in fields.get("query_range_sensor_data_list", []) or [{"sensor_id": 1}]:
-            if q["sensor_id"] != 1:
-                out.append({"range_sensor_data_error_rec": {
-                    "sensor_id": q["sensor_id"], "data_error_code": 255,
-                    "error_message": "no such sensor"}})
-                continue
-            out.append({"range_sensor_data_seq": {
-                "range_sensor_data_rec": {"sensor_id": 1, "report_coordinate_system": 0,
-                                          "time_stamp": self._time_stamp()},
-                "range_sensor_data_point_list": self._scan()}})
-        return {"range_sensor_data_list": out}
-
-    def _report_range_sensor_capabilities(self, comp: Component,
-                                          fields: dict[str, Any]) -> dict[str, Any]:
-        return {"range_sensor_capabilities_list": [{
-            "sensor_id": 1, "sensor_name": "front lidar",
-            "supported_states": {"active": 1, "standby": 0, "off": 0},
-            "minimum_horizontal_field_of_view_start_angle": -math.pi / 2,
-            "maximum_horizontal_field_of_view_stop_angle": math.pi / 2,
-            "miniumum_update_rate": 1.0, "maximum_update_rate": 20.0,
-            "minimum_range": 0.1, "maximum_range": 80.0}]}
-
-    def _report_range_sensor_configuration(self, comp: Component,
-                                           fields: dict[str, Any]) -> dict[str, Any]:
-        return {"range_sensor_configuration_list": [{
-            "sensor_id": 1, "horizontal_field_of_view_start_angle": -math.pi / 2,
-            "horizontal_field_of_view_stop_angle": math.pi / 2, "update_rate": 10.0,
-            "minimum_range": 0.1, "maximum_range": 80.0, "sensor_state": 0}]}
-
-    def _report_visual_sensor_capabilities(self, comp: Component,
-                                           fields: dict[str, Any]) -> dict[str, Any]:
-        return {"visual_sensor_capabilities_list": [{
-            "sensor_id": 1, "sensor_name": "mast camera",
-            "supported_states": {"active": 1, "standby": 1, "off": 0},
-            "imaging_modes": {"color": 0, "greyscale": 1}}]}
-
-    def _report_visual_sensor_configuration(self, comp: Component,
-                                            fields: dict[str, Any]) -> dict[str, Any]:
-        return {"visual_sensor_configuration_list": [{
-            "sensor_id": 1, "sensor_state": 0, "imaging_mode": 1,
-            "horizontal_field_of_view": 1.0, "vertical_field_of_view": 0.75}]}
-
-    def _report_still_image_capabilities(self, comp: Component,
-                                         fields: dict[str, Any]) -> dict[str, Any]:
-        return {"still_image_sensor_list": [{
-            "sensor_id": 1, "supported_frame_sizes": {"qqvga_160x120": 1},
-            "supported_image_formats": {"png": 1}}]}
-
-    def _report_still_image_configuration(self, comp: Component,
-                                          fields: dict[str, Any]) -> dict[str, Any]:
-        return {"still_image_sensor_configuration_list": [{
-            "sensor_id": 1, "frame_size": 5, "still_image_format": 2}]}
-
-    def still_image(self) -> bytes:
-        """The current camera frame (a PNG; a new frame every second)."""
-        number = int(self._physics_time)
-        if self._image_cache is None or self._image_cache[0] != number:
-            self._image_cache = (number, camera_frame(self.spec.image_width,
-                                                      self.spec.image_height,
-                                                      self.spec.seed, number))
-        return self._image_cache[1]
-
-    def _report_still_image_data(self, comp: Component,
-                                 fields: dict[str, Any]) -> dict[str, Any]:
-        out = []
-        for q in fields.get("query_still_image_data_list", []) or [{"sensor_id": 1}]:
-            if q["sensor_id"] != 1:
-                continue
-            out.append({"sensor_id": 1, "report_coordinate_system": 0,
-                        "time_stamp": self._time_stamp(),
-                        "image_frame": {"format": 2, "data": self.still_image()}})
-        return {"still_image_data_list": out}
-
-    def _report_ocean_environment(self, comp: Component,
-                                  fields: dict[str, Any]) -> dict[str, Any]:
-        t = self._physics_time
-        return {"water_temperature": 12.0 + 0.5 * math.sin(t / 90.0),
-                "salinity": 35.0 + 0.2 * math.sin(t / 200.0),
-                "depth": self._depth(), "current_speed": 0.4 + 0.1 * math.sin(t / 30.0),
-                "current_direction": wrap_angle(0.8 + 0.2 * math.sin(t / 45.0)),
-                "time_stamp": self._time_stamp()}
 
     def _report_heartbeat(self, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
         return {}
@@ -923,11 +715,13 @@ class SimVehicle:
         })
 
     def atr_image(self, image_id: int) -> bytes:
-        """The bytes of ATR image ``image_id`` (deterministic; a 320x240 PNG)."""
+        """The bytes of ATR image ``image_id`` (the same every time it is asked for)."""
         data = self.atr_images.get(image_id)
-        if data is None:
-            data = png_grey(320, 240, frame_pixels(320, 240, self.spec.seed + 7919, image_id))
-        return data
+        return data if data is not None else self.sensors.atr_image(image_id)
+
+    def still_image(self) -> bytes:
+        """The current camera frame."""
+        return self.sensors.still_image()
 
     def _atr_notice(self, now: float) -> list[Action]:
         comp = self._first(svc.ATR_NOTIFIER)
@@ -952,6 +746,13 @@ class SimVehicle:
 
 Handler = Callable[[SimVehicle, Component, JausAddress, dict[str, Any], float], list[Action]]
 Builder = Callable[[SimVehicle, Component, dict[str, Any]], "dict[str, Any] | None"]
+
+
+def _sensor(report: Callable[[Sensors, dict[str, Any]], dict[str, Any]]) -> Builder:
+    """A report builder that asks the vehicle's sensors."""
+    def build(vehicle: SimVehicle, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
+        return report(vehicle.sensors, fields)
+    return build
 
 
 def _management_handler(name: str) -> Handler:
@@ -986,20 +787,22 @@ _HANDLERS: dict[str, tuple[str, Handler]] = {
 #: query name -> (service, report name, report builder)
 _QUERIES: dict[str, tuple[str, str, Builder]] = {
     "QueryIdentification": (svc.DISCOVERY, "ReportIdentification",
-                            SimVehicle._report_identification),
+                            lambda v, c, f: discovery.identification(v.spec, c.spec, f)),
     "QueryConfiguration": (svc.DISCOVERY, "ReportConfiguration",
-                           SimVehicle._report_configuration),
-    "QueryServices": (svc.DISCOVERY, "ReportServices", SimVehicle._report_services),
-    "QueryServiceList": (svc.DISCOVERY, "ReportServiceList", SimVehicle._report_service_list),
+                           lambda v, c, f: discovery.configuration(v.spec, v.layout)),
+    "QueryServices": (svc.DISCOVERY, "ReportServices",
+                      lambda v, c, f: discovery.services(v.spec, v.layout, f)),
+    "QueryServiceList": (svc.DISCOVERY, "ReportServiceList",
+                         lambda v, c, f: discovery.service_list(v.spec, v.layout, f)),
     "QueryControl": (svc.ACCESS_CONTROL, "ReportControl", SimVehicle._report_control),
     "QueryAuthority": (svc.ACCESS_CONTROL, "ReportAuthority",
                        lambda v, c, f: {"authority_code": c.authority}),
     "QueryStatus": (svc.MANAGEMENT, "ReportStatus", SimVehicle._report_status),
     "QueryHeartbeatPulse": (svc.LIVENESS, "ReportHeartbeatPulse", SimVehicle._report_heartbeat),
-    "QueryGlobalPose": (svc.GLOBAL_POSE, "ReportGlobalPose", SimVehicle._report_global_pose),
-    "QueryLocalPose": (svc.LOCAL_POSE, "ReportLocalPose", SimVehicle._report_local_pose),
+    "QueryGlobalPose": (svc.GLOBAL_POSE, "ReportGlobalPose", _sensor(Sensors.global_pose)),
+    "QueryLocalPose": (svc.LOCAL_POSE, "ReportLocalPose", _sensor(Sensors.local_pose)),
     "QueryVelocityState": (svc.VELOCITY_STATE, "ReportVelocityState",
-                           SimVehicle._report_velocity_state),
+                           _sensor(Sensors.velocity_state)),
     "QueryWrenchEffort": (svc.PRIMITIVE_DRIVER, "ReportWrenchEffort",
                           SimVehicle._report_wrench_effort),
     "QueryElement": (svc.LIST_MANAGER, "ReportElement", SimVehicle._report_element),
@@ -1012,25 +815,25 @@ _QUERIES: dict[str, tuple[str, str, Builder]] = {
     "QueryTravelSpeed": (svc.WAYPOINT_LIST_DRIVER, "ReportTravelSpeed",
                          SimVehicle._report_travel_speed),
     "QueryRangeSensorData": (svc.RANGE_SENSOR, "ReportRangeSensorData",
-                             SimVehicle._report_range_sensor_data),
+                             _sensor(Sensors.range_sensor_data)),
     "QueryStillImageData": (svc.STILL_IMAGE, "ReportStillImageData",
-                            SimVehicle._report_still_image_data),
+                            _sensor(Sensors.still_image_data)),
     "QueryRangeSensorCapabilities": (svc.RANGE_SENSOR, "ReportRangeSensorCapabilities",
-                                     SimVehicle._report_range_sensor_capabilities),
+                                     _sensor(Sensors.range_sensor_capabilities)),
     "QueryRangeSensorConfiguration": (svc.RANGE_SENSOR, "ReportRangeSensorConfiguration",
-                                      SimVehicle._report_range_sensor_configuration),
+                                      _sensor(Sensors.range_sensor_configuration)),
     "QueryVisualSensorCapabilities": (svc.VISUAL_SENSOR, "ReportVisualSensorCapabilities",
-                                      SimVehicle._report_visual_sensor_capabilities),
+                                      _sensor(Sensors.visual_sensor_capabilities)),
     "QueryVisualSensorConfiguration": (svc.VISUAL_SENSOR, "ReportVisualSensorConfiguration",
-                                       SimVehicle._report_visual_sensor_configuration),
+                                       _sensor(Sensors.visual_sensor_configuration)),
     "QueryStillImageSensorCapabilities": (svc.STILL_IMAGE,
                                           "ReportStillImageSensorCapabilities",
-                                          SimVehicle._report_still_image_capabilities),
+                                          _sensor(Sensors.still_image_capabilities)),
     "QueryStillImageSensorConfiguration": (svc.STILL_IMAGE,
                                            "ReportStillImageSensorConfiguration",
-                                           SimVehicle._report_still_image_configuration),
+                                           _sensor(Sensors.still_image_configuration)),
     "QueryOceanEnvironment": (svc.OCEAN_ENVIRONMENT, "ReportOceanEnvironment",
-                              SimVehicle._report_ocean_environment),
+                              _sensor(Sensors.ocean_environment)),
 }
 
 #: reports whose optional fields follow the query's presence vector

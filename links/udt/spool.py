@@ -317,7 +317,9 @@ class Spool:
             handle.seek(start + held)
             if entry.segments == 1:
                 handle.truncate(held)
-            for i in range(entry.segments):
+            # Bytes written but never made durable are not trusted; only this claim's
+            # segments are reset, other lanes may be writing theirs right now.
+            for i in range(entry.segments) if key is None else (key,):
                 entry.written[i] = entry.durable[i]
             entry.claims[key] = Claim(key, handle, start + held, synced_at=time.monotonic())
             return held

@@ -80,6 +80,7 @@ def test_kinds_decide_direction() -> None:
     assert set(registry.inbound()) == {
         "ControlRequest", "WrenchEffortCommand", "VelocityCommand", "WaypointPlan",
         "JointCommand", "EndEffectorCommand", "DeviceCommand", "PlatformCommand",
+        "VectorCommand", "AccelerationLimitCommand", "PoseCommand",
     }
     assert registry.get("GlobalPose").kind is TopicKind.TELEMETRY
     assert registry.get("VehicleIdentification").kind is TopicKind.STATE

@@ -15,9 +15,13 @@ from edge_vis.service import Heartbeat, Notifier
 def test_run_reports_ready_then_watchdog_then_stopping(
     notify_socket: NotifyListener, tmp_path
 ) -> None:
-    env = relay_env(NOTIFY_SOCKET=notify_socket.path, WATCHDOG_USEC="600000")
+    env = relay_env(NOTIFY_SOCKET=notify_socket.path, WATCHDOG_USEC="1000000")
+    started = time.monotonic()
     relay = Relay(["--log-format", "json", "run", "--no-dds", "--duration", "2",
                    "--link", "udp://127.0.61.1:0?multicast=off"], tmp_path / "relay.log", env)
+    while relay.proc.poll() is None and time.monotonic() < started + 15:
+        notify_socket.drain()  # as they come: arrival times matter
+        time.sleep(0.02)
     code = relay.wait()
     assert code == 0, relay.log()
     notes = notify_socket.drain()
@@ -27,10 +31,10 @@ def test_run_reports_ready_then_watchdog_then_stopping(
     assert notes[0].fields["STATUS"] == "0 vehicle(s), 0 online; links 1/1 up"
     stopping = kinds.index("STOPPING")
     pings = [n for n in notes[1:stopping] if "WATCHDOG" in n.fields]
-    # 2 s at one ping every 0.3 s: six or so, and never more than half the interval apart
-    assert len(pings) >= 4, kinds
+    # 2 s at one ping every 0.5 s: about four, never a watchdog interval (1 s) apart
+    assert len(pings) >= 3, kinds
     gaps = [b.at - a.at for a, b in zip([notes[0], *pings], pings, strict=False)]
-    assert max(gaps) < 0.6, gaps
+    assert max(gaps) < 1.0, gaps
     assert kinds.count("READY") == 1 and kinds.count("STOPPING") == 1
     # --log-format json: every stderr line is one JSON object
     import json
@@ -81,13 +85,12 @@ def test_stuck_event_loop_stops_pinging(notify_socket: NotifyListener) -> None:
         notify_socket.drain()
         before = len(notify_socket.messages)
         time.sleep(0.8)  # a callback that hangs the loop
-        blocked_until = time.monotonic()
         notify_socket.drain()
         assert len(notify_socket.messages) == before, "pinged while the loop was stuck"
         await asyncio.sleep(0.3)
         heartbeat.stop()
         notifier.close()
         after = [n for n in notify_socket.drain()[before:] if "WATCHDOG" in n.fields]
-        assert after and after[0].at >= blocked_until - 0.01
+        assert after, "pings did not resume with the loop"
 
     asyncio.run(main())

@@ -215,3 +215,19 @@ def test_first_dropout_time_can_be_given() -> None:
     assert wire.send("QueryStatus") == []
     wire.advance(2.0)
     assert wire.send("QueryStatus") != []
+
+
+def test_a_silent_vehicle_does_not_ask_to_be_woken_in_the_past() -> None:
+    wire = Wire(spec(faults={"dropout_every": 30.0, "dropout_duration": 5.0}))
+    wire.ready()
+    wire.send("CreateEvent", {"request_id": 1, "event_type": 0, "requested_periodic_rate": 20.0,
+                              "query_message": wire.payload("QueryHeartbeatPulse")})
+    wire.advance(28.0)
+    wire.take_control()  # t = 29: control would time out at 34, inside the drop-out
+    wire.advance(1.5)  # down since t = 30
+    assert wire.vehicle.down
+    for _ in range(40):
+        wire.now += 0.1
+        wire.vehicle.on_timer(wire.now)
+        deadline = wire.vehicle.next_deadline()
+        assert deadline is not None and deadline > wire.now

@@ -7,6 +7,7 @@ the catalogue and the reassembler - so these tests check the simulator on its ow
 from __future__ import annotations
 
 import asyncio
+import hashlib
 import os
 import subprocess
 import sys
@@ -160,12 +161,52 @@ def test_acks_and_malformed_input_over_udp() -> None:
     asyncio.run(_with_ugv(body))
 
 
+def test_reboot_restarts_transport_sequence_numbers() -> None:
+    vehicle = spec(name="ugv-reboot", link="udp://127.0.0.73:0",
+                   faults={"dropout_every": 100.0, "dropout_first": 0.6,
+                           "dropout_duration": 0.6, "dropout_reboot": True})
+
+    async def main() -> None:
+        sim = Simulation(SimProfile((vehicle,)))
+        await sim.start()
+        loop = asyncio.get_running_loop()
+        client = Client()
+        transport, _ = await loop.create_datagram_endpoint(lambda: client,
+                                                           local_addr=("127.0.0.1", 0))
+        client.transport = transport
+        endpoint = sim.endpoints[0]
+        assert isinstance(endpoint, UdpVehicle)
+        platform = JausAddress(101, 1, 2)
+        try:
+            seqs = []
+            for _ in range(3):
+                client.send(endpoint.address, platform, "QueryStatus")
+                packet, _ = await client.expect("ReportStatus")
+                seqs.append(packet.sequence)
+            assert seqs == [seqs[0], seqs[0] + 1, seqs[0] + 2]
+            await asyncio.sleep(0.8)  # inside the drop-out (0.6 .. 1.2 s)
+            client.send(endpoint.address, platform, "QueryStatus")
+            with pytest.raises(TimeoutError):
+                await client.expect("ReportStatus", timeout=0.3)
+            await asyncio.sleep(0.4)  # back, rebooted
+            client.send(endpoint.address, platform, "QueryStatus")
+            packet, _ = await client.expect("ReportStatus")
+            assert packet.sequence == 1
+            assert endpoint.counters["reboots"] == 1
+        finally:
+            transport.close()
+            await sim.stop()
+
+    asyncio.run(main())
+
+
 @pytest.mark.serial
 def test_uuv_on_a_pseudo_terminal(tmp_path: Path) -> None:
     link, path_file = tmp_path / "uuv", tmp_path / "uuv.path"
     vehicle = spec(name="uuv-pty", kind="uuv", subsystem=300, link="pty",
                    pty_link=str(link), pty_path_file=str(path_file), hello_period=0.3,
-                   environment_period=0.0, atr_period=0.0, baud=115200)
+                   environment_period=0.0, atr_period=0.5, baud=115200,
+                   atr_dir=str(tmp_path / "atr"))
 
     async def main() -> None:
         sim = Simulation(SimProfile((vehicle,)))
@@ -191,14 +232,18 @@ def test_uuv_on_a_pseudo_terminal(tmp_path: Path) -> None:
                 assert hello.name == "VendorHello" and hello.fields["vehicle_name"] == "uuv-pty"
                 os.write(fd, jserial.frame(Packet(JausAddress(300, 1, 1), ME,
                                                   CAT.encode("QueryHeartbeatPulse", {}))))
-                while (msg := await got.get()).name == "VendorHello":
+                while (await got.get()).name != "ReportHeartbeatPulse":
                     pass
-                assert msg.name == "ReportHeartbeatPulse"
+                while (notice := await got.get()).name != "ReportAtrImageAvailable":
+                    pass
         finally:
             loop.remove_reader(fd)
             os.close(fd)
             await sim.stop()
         assert not link.exists() and not path_file.exists()
+        image = (tmp_path / "atr" / f"atr-{notice.fields['image_id']}.png").read_bytes()
+        assert hashlib.sha256(image).digest() == notice.fields["sha256"]
+        assert len(image) == notice.fields["size_bytes"]
 
     asyncio.run(main())
 

@@ -157,11 +157,20 @@ def check_command_rule(translator: RuleTranslator, rule: CommandRule,
     assert (command.name, command.service, command.kind) == (rule.message, rule.service,
                                                              rule.kind)
     assert (command.vehicle_id, command.operator_id) == ("veh1", "op1")
-    payload = CAT.encode(command.name, command.fields)
+    payload = encode(command)
     assert CAT.decode(payload).name == command.name
     if command.stop is not None:
-        CAT.encode(command.name, command.stop)
+        encode(command, command.stop)
     return command
+
+
+def encode(action: Any, fields: Mapping[str, Any] | None = None) -> bytes:
+    """The payload of a Command or SendMessage, encoded as the runtime does: by name, or
+    by the code of that name in the action's ``service_set``."""
+    name: str | int = action.name
+    if action.service_set is not None:
+        name = CAT.by_name(action.name, action.service_set).code
+    return CAT.encode(name, dict(action.fields if fields is None else fields))
 
 
 class Relay:
@@ -203,7 +212,7 @@ class Relay:
         actions = self.engine.drain_actions()
         for action in actions:
             if isinstance(action, SendMessage):
-                CAT.encode(action.name, dict(action.fields))  # encodable as emitted
+                encode(action)  # encodable as emitted
         self.actions.extend(actions)
         return actions
 

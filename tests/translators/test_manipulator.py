@@ -6,7 +6,7 @@ import math
 from typing import Any
 
 import pytest
-from rulekit import CAT, CTX, check_command_rule, check_report_rule, command_sample
+from rulekit import CAT, CTX, check_command_rule, check_report_rule, command_sample, encode
 
 from edge_vis.engine.actions import Command
 from translators.generic import CommandRule
@@ -60,6 +60,7 @@ COMMAND_CASES: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
          "linear_velocity_component_z": 0.0, "angular_velocity_component_x": 0.0,
          "angular_velocity_component_y": 0.0, "angular_velocity_component_z": -0.5}),
     "SetEndEffectorEffort": ({"effort": 150.0}, {"end_effector_effort": 100.0}),
+    "ExecuteList": ({"values": [3.0]}, {"element_uid": 3}),
 }
 
 
@@ -73,7 +74,7 @@ def test_every_declared_command(rule: CommandRule) -> None:
     command = check_command_rule(TR(), rule, command_sample(rule, **values))
     assert _close(dict(command.fields), expected)
     # and through real bytes the values survive, within the JSIDL resolution
-    decoded = CAT.decode(CAT.encode(command.name, command.fields)).fields
+    decoded = CAT.decode(encode(command)).fields
     assert _close(decoded, expected, tol=5e-3)  # 16-bit efforts: 0.003 % steps
 
 

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import hashlib
+import itertools
 import json
 import struct
+from dataclasses import replace
 
 import pytest
 
@@ -301,3 +303,38 @@ def test_backoff_grows_caps_and_resets():
     assert b.next_delay() == pytest.approx(0.1)
     jittery = Backoff(initial=1.0, jitter=0.1, seed=4)
     assert 0.9 <= jittery.next_delay() <= 1.1
+
+
+def test_segment_manifests_cover_the_file_exactly_once():
+    from links.udt.protocol import segment_bounds
+
+    for size in (0, 1, 65_535, 65_536, 1_000_003, 20 << 20):
+        for count in (1, 2, 3, 4, 7, 16):
+            spans = [segment_bounds(size, i, count) for i in range(count)]
+            assert spans[0][0] == 0 and spans[-1][1] == size
+            assert all(a[1] == b[0] for a, b in itertools.pairwise(spans))
+
+
+def test_segment_transfer_is_relative_to_its_span():
+    content = bytes(range(256)) * 1024  # 262 144 bytes: 4 segments of 64 KiB
+    m = make_manifest(content)
+    lane = Manifest.from_json(replace(m, segment=(2, 4)).to_json())
+    assert lane.segment == (2, 4) and lane.span() == (131_072, 196_608)
+    assert lane.whole() == m
+    s, r = SenderConnection(), ReceiverConnection()
+    s.send_manifest(lane, 0.0)
+    pump(s, r)
+    r.accept(0)
+    pump(r, s)
+    s.send_data(content[131_072:196_608], 0.0)
+    events = pump(s, r)
+    assert events[-1] == DataComplete(lane)
+    assert sum(len(e.data) for e in events if isinstance(e, DataReceived)) == 65_536
+
+
+@pytest.mark.parametrize("segment", [[4, 4], [0, 0], [0, 17], [-1, 2], [0], "0/4", [True, 2]])
+def test_bad_segment_is_refused(segment):
+    raw = json.loads(make_manifest().to_json())
+    raw["segment"] = segment
+    with pytest.raises(ManifestError, match=r"manifest\.segment"):
+        Manifest.from_mapping(raw)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -179,3 +180,59 @@ def test_outbox_survives_restart_until_forwarded(tmp_path: Path):
     assert list(again.outbox("a:1")) == []
     [(got, path)] = list(again.outbox("b:2"))
     assert got == m and path.read_bytes() == content
+
+
+def test_lanes_write_their_segments_concurrently_and_resume_each(tmp_path: Path):
+    content = os.urandom(1_000_000)
+    m = manifest_for(content)
+    lanes = [replace(m, segment=(i, 3)) for i in range(3)]
+    spool = Spool(tmp_path / "s", sync_interval=3600.0)
+    for lane in lanes:
+        assert spool.begin(lane) == 0
+    # Interleaved writes, as three connections deliver them.
+    for step in range(0, 200_000, 50_000):
+        for lane in lanes:
+            a, _ = lane.span()
+            spool.write(lane, step, content[a + step:a + step + 50_000])
+    for lane in lanes:
+        spool.release(lane)
+    spool.close()
+    again = Spool(tmp_path / "s")
+    assert [again.begin(lane) for lane in lanes] == [200_000] * 3
+    with pytest.raises(SpoolRefusal) as busy:
+        again.begin(m)  # the whole file while lanes hold it
+    assert busy.value.code is Reason.BUSY
+    for lane in lanes:
+        a, b = lane.span()
+        spool_off = 200_000
+        again.write(lane, spool_off, content[a + spool_off:b])
+        again.release(lane)
+    assert again.all_held(m.transfer_id)
+    assert again.begin(m) == len(content)  # nothing left to send: verify
+    assert again.complete(m).read_bytes() == content
+
+
+def test_whole_file_after_partial_lanes_continues_from_the_contiguous_prefix(tmp_path: Path):
+    content = os.urandom(600_000)
+    m = manifest_for(content)
+    first, second = (replace(m, segment=(i, 2)) for i in range(2))
+    spool = Spool(tmp_path / "s")
+    spool.begin(first)
+    spool.write(first, 0, content[: first.length])  # lane 1 complete
+    spool.release(first)
+    spool.begin(second)
+    spool.write(second, 0, content[first.length:first.length + 1000])  # lane 2 started
+    spool.release(second)
+    # The sender comes back without lanes: it sends from the contiguous prefix on.
+    held = spool.begin(m)
+    assert held == first.length + 1000
+    spool.write(m.transfer_id, held, content[held:])
+    assert spool.complete(m).read_bytes() == content
+
+
+def test_a_different_lane_count_is_refused_clearly(tmp_path: Path):
+    m = manifest_for(os.urandom(300_000))
+    spool = Spool(tmp_path / "s")
+    spool.begin(replace(m, segment=(0, 4)))
+    with pytest.raises(SpoolRefusal, match="received in 4 lane"):
+        spool.begin(replace(m, segment=(0, 2)))

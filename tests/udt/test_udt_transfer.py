@@ -195,6 +195,28 @@ def test_transfer_through_a_lossy_delaying_rate_limited_link(tmp_path: Path, mak
     assert (tmp_path / "ops" / "uuv1" / "img.png").read_bytes() == content
 
 
+def test_lanes_over_a_lossy_link_survive_a_drop_and_verify(tmp_path: Path, make_file):
+    path, content = make_file(4 << 20)
+    with UdtLink.ImageService(tmp_path / "ops") as ops, LossyProxy(
+        ops.address, loss=0.01, delay=0.005, rate_bps=16e6, queue_bytes=256 * 1024, seed=5,
+        lifetime=40,
+    ) as proxy:
+        results = []
+        sender = threading.Thread(target=lambda: results.append(UdtLink.send_image(
+            path, proxy.address, vehicle_id="uuv1", lanes=4, backoff=FAST, give_up_after=20)))
+        sender.start()
+        entries = ops.spool._entries.values
+        wait_for(lambda: [e for e in entries() if len(e.claims) == 4
+                          and sum(e.written) > 300_000], 20, "four lanes under way")
+        assert ops.receiver.drop_connections() == 4
+        sender.join(40)
+    (result,) = results
+    assert result.ok, result.reason
+    assert result.attempts >= 9  # four lanes, each connected twice, then the verdict
+    assert sum(1 for o in result.resumed_from if o) >= 2
+    assert (tmp_path / "ops" / "uuv1" / "img.png").read_bytes() == content
+
+
 # --------------------------------------------------------------------------- bad input
 
 
