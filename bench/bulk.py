@@ -10,8 +10,10 @@ Run: ``.venv/bin/python bench/bulk.py [--quick]``. Prints a table; asserts nothi
   per file; "open connection" sends on a connection already carrying files, as a batch
   (``send-image A B C``) and the relay's forwarder do.
 * ``lossy``: the same through ``tests/lossy_proxy.py`` at 10 Mbit/s, 2 % loss each way,
-  20 ms one-way delay, 64 KiB queue. Shown without a rate budget (UDT probes) and with a
-  budget of 9.5 Mbit/s (``UDT_MAXBW``), as a fraction of the proxy's 10 Mbit/s.
+  20 ms one-way delay, 64 KiB queue, with one lane and with four (parallel connections,
+  ``--lanes 4``), without a rate budget (UDT probes) and with a budget of 9.5 Mbit/s
+  (``UDT_MAXBW``, split between lanes), as a fraction of the proxy's 10 Mbit/s. Mean of
+  two seeds of the proxy's loss pattern.
 * ``resume``: a loopback transfer held to 80 Mbit/s is cut (receiver closes every
   connection); the figure is the time from the cut until the receiver has accepted the
   resumed transfer at its offset, with the sender's default backoff.
@@ -43,10 +45,10 @@ def _file(folder: Path, size: int, name: str) -> tuple[Path, object]:
 
 
 def _timed_send(path: Path, manifest: object, address: tuple[str, int],
-                max_rate: int | None = None) -> float:
+                max_rate: int | None = None, lanes: int = 1) -> float:
     started = time.perf_counter()
     result = UdtLink.send_image(path, address, manifest=manifest, max_rate_bps=max_rate,
-                                give_up_after=120)
+                                give_up_after=120, lanes=lanes)
     elapsed = time.perf_counter() - started
     if not result.ok:
         raise SystemExit(f"transfer failed: {result.reason}")
@@ -75,13 +77,14 @@ def loopback(folder: Path, size: int, runs: int, warm: bool) -> tuple[float, flo
     return size / min(times) / 1e6, statistics.median(times)
 
 
-def lossy(folder: Path, size: int, max_rate: int | None, seed: int) -> tuple[float, dict]:
+def lossy(folder: Path, size: int, max_rate: int | None, lanes: int, seed: int
+          ) -> tuple[float, dict]:
     path, manifest = _file(folder, size, f"lossy{seed}.bin")
-    with UdtLink.ImageService(folder / f"lossy{seed}") as svc, LossyProxy(
+    with UdtLink.ImageService(folder / f"lossy{seed}{lanes}{max_rate}") as svc, LossyProxy(
         svc.address, loss=0.02, delay=0.020, rate_bps=10e6, queue_bytes=64 * 1024, seed=seed,
         lifetime=300,
     ) as proxy:
-        elapsed = _timed_send(path, manifest, proxy.address, max_rate)
+        elapsed = _timed_send(path, manifest, proxy.address, max_rate, lanes)
         counters = dict(proxy.counters)
     return size * 8 / elapsed / 1e6, counters
 
@@ -121,7 +124,7 @@ def main() -> None:
     args = parser.parse_args()
     logging.basicConfig(level=logging.WARNING)
     runs = 2 if args.quick else 5
-    lossy_size = (1 << 20) if args.quick else (4 << 20)
+    lossy_size = (4 << 20) if args.quick else (8 << 20)
     rows: list[tuple[str, str, str]] = []
     with tempfile.TemporaryDirectory(prefix="bulk-bench-") as tmp:
         folder = Path(tmp)
@@ -131,11 +134,13 @@ def main() -> None:
                 how = "open connection" if warm else "new connection"
                 rows.append((f"loopback {label}, {how}", f"{mbps:7.1f} MB/s",
                              f"best of runs; median {median * 1000:.0f} ms"))
-        for max_rate, label in ((None, "no budget"), (9_500_000, "budget 9.5 Mbit/s")):
-            figures = [lossy(folder, lossy_size, max_rate, seed) for seed in (1, 2)]
+        for lanes, max_rate in ((1, None), (1, 9_500_000), (4, None), (4, 9_500_000)):
+            label = f"{lanes} lane{'s' if lanes > 1 else ''}, " + (
+                "no budget" if max_rate is None else "budget 9.5 Mbit/s")
+            figures = [lossy(folder, lossy_size, max_rate, lanes, seed) for seed in (1, 2)]
             good = statistics.mean(f for f, _ in figures)
             c = figures[0][1]
-            rows.append((f"lossy 10M/2%/20ms {label}", f"{good:7.2f} Mbit/s",
+            rows.append((f"lossy 10M/2%/20ms, {label}", f"{good:7.2f} Mbit/s",
                          f"{good / 10 * 100:.0f} % of link; {lossy_size >> 20} MiB file; "
                          f"proxy lost {c.get('up_lost', 0)}+{c.get('down_lost', 0)}, "
                          f"queue-dropped {c.get('up_queue_drop', 0)}"))

@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 from urllib.parse import urlsplit
 
+from edge_vis.bandwidth.linkspec import SPEC_KEYS, LinkSpec, load_link_spec, read_link_spec
 from edge_vis.errors import ConfigError
 from edge_vis.jaus.address import JausAddress
 
@@ -39,12 +40,18 @@ T = TypeVar("T")
 
 @dataclass(frozen=True, slots=True)
 class LinkProfile:
-    """A radio or wired link. ``bandwidth`` in bit/s, 0 = unknown/unlimited."""
+    """A radio or wired link. ``bandwidth`` in bit/s, 0 = unknown/unlimited.
+
+    ``spec`` describes the medium (``profile = "serial-9600"`` naming a file of
+    ``profiles/links/``, and/or the same keys inline): the rate planner and the link
+    scheduler work from it. Without it only ``bandwidth`` paces the link.
+    """
 
     name: str
     url: str
     bandwidth: int = 0
     options: Mapping[str, Any] = field(default_factory=dict)
+    spec: LinkSpec | None = None
 
     @property
     def scheme(self) -> str:
@@ -86,6 +93,9 @@ class VehicleProfile:
     components: tuple[ComponentProfile, ...] = ()
     report_rates: Mapping[str, float] = field(default_factory=dict)
     source: str = ""
+    #: minimum useful rate (Hz) and planning priority (higher = kept longer) by report
+    report_minimums: Mapping[str, float] = field(default_factory=dict)
+    report_priorities: Mapping[str, int] = field(default_factory=dict)
 
     @property
     def is_static(self) -> bool:
@@ -194,6 +204,8 @@ class RelayProfile:
     vehicles: tuple[VehicleProfile, ...] = ()
     jsidl: tuple[Path, ...] = ()
     source: str = ""
+    report_minimums: Mapping[str, float] = field(default_factory=dict)
+    report_priorities: Mapping[str, int] = field(default_factory=dict)
 
     def vehicle_by_subsystem(self, subsystem: int) -> VehicleProfile | None:
         """The vehicle profile claiming JAUS ``subsystem``, if any."""
@@ -207,6 +219,27 @@ class RelayProfile:
         if vehicle is not None and report in vehicle.report_rates:
             return vehicle.report_rates[report]
         return self.report_rates.get(report, default)
+
+    def report_minimum(self, report: str, desired: float,
+                       vehicle: VehicleProfile | None) -> float:
+        """Minimum useful rate of ``report`` (default: a tenth of ``desired``)."""
+        if vehicle is not None and report in vehicle.report_minimums:
+            value = vehicle.report_minimums[report]
+        else:
+            value = self.report_minimums.get(report, desired * DEFAULT_MINIMUM_SHARE)
+        return min(value, desired)
+
+    def report_priority(self, report: str, vehicle: VehicleProfile | None) -> int:
+        """Planning priority of ``report``: higher is degraded later (default 5)."""
+        if vehicle is not None and report in vehicle.report_priorities:
+            return vehicle.report_priorities[report]
+        return self.report_priorities.get(report, DEFAULT_REPORT_PRIORITY)
+
+
+#: minimum useful rate of a report without one in the profile, as a share of its rate
+DEFAULT_MINIMUM_SHARE = 0.1
+#: planning priority of a report without one in the profile
+DEFAULT_REPORT_PRIORITY = 5
 
 
 # -- validation machinery ---------------------------------------------------------------
@@ -306,12 +339,39 @@ def _address(reader: _Reader, name: str, default: JausAddress | None) -> JausAdd
 
 
 def _rates(reader: _Reader) -> dict[str, float]:
+    return _report_table(reader)[0]
+
+
+def _report_table(reader: _Reader) -> tuple[dict[str, float], dict[str, float], dict[str, int]]:
+    """``[report_rates]``: ``Report = 5.0`` or ``Report = {desired = 5.0, minimum = 1.0,
+    priority = 7}``; returns (desired rates, minimum rates, priorities)."""
     rates: dict[str, float] = {}
+    minimums: dict[str, float] = {}
+    priorities: dict[str, int] = {}
     for report in reader.data:
+        if isinstance(reader.data[report], Mapping):
+            sub = reader.table(report)
+            desired = sub.get("desired", float, None, _positive)
+            if "desired" not in sub.data:
+                sub.problem("desired", "missing: the rate (Hz) wanted when the link allows")
+            minimum = sub.get("minimum", float, None, _positive)
+            priority = sub.get("priority", int, None,
+                               lambda v: None if 0 <= v <= 9 else f"must be in 0..9, got {v}")
+            sub.finish()
+            if desired is not None:
+                rates[report] = desired
+                if minimum is not None and minimum > desired:
+                    sub.problem("minimum", f"{minimum:g} Hz is above the desired "
+                                           f"{desired:g} Hz")
+            if minimum is not None:
+                minimums[report] = minimum
+            if priority is not None:
+                priorities[report] = priority
+            continue
         rate = reader.get(report, float, None, _positive)
         if rate is not None:
             rates[report] = rate
-    return rates
+    return rates, minimums, priorities
 
 
 def _str_list(reader: _Reader, name: str, default: tuple[str, ...]) -> tuple[str, ...]:
@@ -325,6 +385,28 @@ def _str_list(reader: _Reader, name: str, default: tuple[str, ...]) -> tuple[str
         else:
             out.append(item)
     return tuple(out)
+
+
+def _link_spec(sub: _Reader, base_dir: Path | None, problems: _Problems) -> LinkSpec | None:
+    """The medium of a link: ``profile = "name"`` and/or the link-profile keys inline."""
+    inline = {k: v for k, v in sub.data.items() if k in SPEC_KEYS}
+    sub.used.update(inline)
+    profile_name = sub.get("profile", str, "")
+    if not profile_name and not inline:
+        return None
+    found: list[tuple[str, str, str]] = []
+    base = None
+    if profile_name:
+        base = load_link_spec(profile_name, base_dir=base_dir, file=sub.file,
+                              path=sub.key("profile"), problems=found)
+    spec = read_link_spec(inline, file=sub.file, path=sub.path, problems=found,
+                          base=base or LinkSpec(source=sub.file))
+    if not profile_name and "bit_rate" not in inline:
+        found.append((sub.file, sub.key("bit_rate"),
+                      "missing: name a link 'profile' or give the link's bit_rate"))
+    for item in found:
+        problems.add(*item)
+    return None if found else spec
 
 
 # -- vehicles ---------------------------------------------------------------------------
@@ -407,7 +489,7 @@ def _vehicle(data: Mapping[str, Any], file: str, path: str, problems: _Problems,
                 sub.problem("address", f"subsystem {comp_addr.subsystem} differs from "
                                        f"the vehicle's {subsystem}")
             components.append(ComponentProfile(comp_addr, tuple(comp_services)))
-    rates = _rates(reader.table("report_rates"))
+    rates, minimums, priorities = _report_table(reader.table("report_rates"))
     name = reader.get("name", str, "")
     vehicle_type = reader.get("vehicle_type", str, "")
     link = reader.get("link", str, "")
@@ -415,7 +497,7 @@ def _vehicle(data: Mapping[str, Any], file: str, path: str, problems: _Problems,
     if not vehicle_id:
         return None
     return VehicleProfile(vehicle_id, subsystem, name, vehicle_type, link, tuple(components),
-                          rates, file)
+                          rates, file, minimums, priorities)
 
 
 # -- the deployment profile -------------------------------------------------------------
@@ -453,9 +535,10 @@ def from_mapping(data: Mapping[str, Any], *, file: str = "",
             sub.problem("url", f"{url!r} has no scheme (e.g. udp://0.0.0.0:3794)")
         bandwidth = sub.get("bandwidth", int, 0, lambda v: None if v >= 0 else "must be >= 0")
         options = sub.get("options", dict, {})
+        spec = _link_spec(sub, base_dir, problems)
         sub.finish()
         if url:
-            links.append(LinkProfile(link_name, url, bandwidth, options))
+            links.append(LinkProfile(link_name, url, bandwidth, options, spec))
 
     dds_t = root.table("dds")
     dds = DdsProfile(dds_t.get("domain", int, 0,
@@ -507,7 +590,7 @@ def from_mapping(data: Mapping[str, Any], *, file: str = "",
     )
     m.finish()
 
-    report_rates = _rates(root.table("report_rates"))
+    report_rates, report_minimums, report_priorities = _report_table(root.table("report_rates"))
 
     vehicles: list[VehicleProfile] = []
     for i, item in enumerate(root.get("vehicles", list, [])):
@@ -557,7 +640,7 @@ def from_mapping(data: Mapping[str, Any], *, file: str = "",
         raise ConfigError(problems.items)
     return RelayProfile(jaus_id, authority, name, tuple(links), dds, translators, discovery,
                         control, events, commands, report_rates, tuple(vehicles), tuple(jsidl),
-                        file)
+                        file, report_minimums, report_priorities)
 
 
 def load_profile(path: str | Path) -> RelayProfile:

@@ -20,13 +20,10 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import socket
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass
-from pathlib import Path
-from typing import Any, BinaryIO
+from typing import Any
 
 from edge_vis import plugins
 from edge_vis.catalogue import Catalogue, default_catalogue
@@ -34,9 +31,9 @@ from edge_vis.config import RelayProfile
 from edge_vis.engine.actions import Publish, SendMessage, ShutdownComplete
 from edge_vis.engine.engine import Engine
 from edge_vis.errors import CodecError, EdgeVisError, EncodeError
-from edge_vis.jaus.transport import Broadcast, Packet, pack_datagram
+from edge_vis.jaus.transport import Broadcast, Packet
 from edge_vis.link import Link, LinkUrl, Peer
-from edge_vis.pcap import PcapWriter, UdpDatagram
+from edge_vis.mirror import Mirror
 from edge_vis.router import Deliver, DeliveryFailed, Router, SendPackets
 
 log = logging.getLogger(__name__)
@@ -45,14 +42,6 @@ log = logging.getLogger(__name__)
 LINK_STATUS_PERIOD = 1.0
 #: at most this many log lines per reason and minute for bad input from the network
 _LOG_BURST = 5
-
-
-@dataclass(frozen=True, slots=True)
-class MirrorOptions:
-    """Copy every JAUS datagram seen on any link to a UDP port and/or a pcap file."""
-
-    udp: tuple[str, int] | None = None
-    pcap: Path | None = None
 
 
 class _RateLimitedLog:
@@ -88,7 +77,7 @@ class Runtime:
         *,
         catalogue: Catalogue | None = None,
         publisher_factory: Callable[[Runtime], Any] | str | None = "dds",
-        mirror: MirrorOptions | None = None,
+        mirror: Mirror | None = None,
         shutdown_timeout: float = 3.0,
     ) -> None:
         self.profile = profile
@@ -99,10 +88,7 @@ class Runtime:
         self.counters: Counter[str] = Counter()
         self._publisher_factory = publisher_factory
         self.publisher: Any = None
-        self._mirror = mirror or MirrorOptions()
-        self._mirror_sock: socket.socket | None = None
-        self._mirror_file: BinaryIO | None = None
-        self._mirror_pcap: PcapWriter | None = None
+        self._mirror = mirror
         self._shutdown_timeout = shutdown_timeout
         self._loop: asyncio.AbstractEventLoop | None = None
         self._timer: asyncio.TimerHandle | None = None
@@ -126,7 +112,6 @@ class Runtime:
             self.publisher = self._open_dds()
         elif callable(self._publisher_factory):
             self.publisher = self._publisher_factory(self)
-        self._open_mirror()
         for link_profile in self.profile.links:
             await self._open_link(link_profile.name, link_profile.url, link_profile.bandwidth)
         log.info(
@@ -144,11 +129,12 @@ class Runtime:
         if bandwidth and "bandwidth" not in options:
             url = url + ("&" if "?" in url else "?") + f"bandwidth={bandwidth}"
         link: Link = cls(url, name=name)
-        if self._mirror_sock is not None or self._mirror_pcap is not None:
-            link.add_tap(self._tap)
+        if self._mirror is not None:
+            self._mirror.attach(link)
         await link.open(self._on_packets, self._on_link_state)
         self.links[name] = link
-        self.router.add_link(name, mtu=link.mtu, bandwidth_bps=link.bandwidth_bps)
+        self.router.add_link(name, mtu=link.mtu, bandwidth_bps=link.bandwidth_bps,
+                             overhead=link.overhead)
         log.info("link %s open: %s (mtu %d)", name, url, link.mtu)
 
     def _open_dds(self) -> Any:
@@ -221,10 +207,8 @@ class Runtime:
         if self.publisher is not None:
             self.publisher.close()
             self.publisher = None
-        if self._mirror_sock is not None:
-            self._mirror_sock.close()
-        if self._mirror_file is not None:
-            self._mirror_file.close()
+        if self._mirror is not None:
+            self._mirror.close()
         log.info("stopped")
 
     # -- inputs ------------------------------------------------------------------------------
@@ -392,30 +376,6 @@ class Runtime:
                 previous[sample["link"]] = (now, total)
                 self._publish("LinkStatus", sample)
 
-    def _open_mirror(self) -> None:
-        if self._mirror.udp is not None:
-            self._mirror_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            self._mirror_sock.setblocking(False)
-        if self._mirror.pcap is not None:
-            self._mirror_file = open(self._mirror.pcap, "wb")  # noqa: SIM115 - kept open
-            self._mirror_pcap = PcapWriter(self._mirror_file)
-
-    def _tap(self, link: str, direction: str, peer: Peer | None, packets: Iterable[Packet]
-             ) -> None:
-        datagram = pack_datagram(packets)
-        if self._mirror_sock is not None and self._mirror.udp is not None:
-            try:
-                self._mirror_sock.sendto(datagram, self._mirror.udp)
-            except OSError:
-                self.counters["mirror drops"] += 1
-        if self._mirror_pcap is not None:
-            host = "127.0.0.1"
-            far = (peer[0], int(peer[1])) if isinstance(peer, tuple) and len(peer) >= 2 \
-                and isinstance(peer[0], str) and _is_ipv4(peer[0]) else ("127.0.0.2", 3794)
-            here = (host, 3794)
-            src, dst = (far, here) if direction == "in" else (here, far)
-            self._mirror_pcap.write(UdpDatagram(time.time(), src, dst, datagram))
-
 
 def _code_of(catalogue: Catalogue, action: SendMessage) -> str | int:
     """What to encode ``action`` as: its name, or the code of the definition of that name
@@ -429,14 +389,6 @@ def _code_of(catalogue: Catalogue, action: SendMessage) -> str | int:
                           f"{action.service_set!r}") from None
 
 
-def _is_ipv4(text: str) -> bool:
-    try:
-        socket.inet_aton(text)
-    except OSError:
-        return False
-    return text.count(".") == 3
-
-
 def _catalogue_for(profile: RelayProfile) -> Catalogue:
     catalogue = default_catalogue()
     if not profile.jsidl:
@@ -448,4 +400,4 @@ def _catalogue_for(profile: RelayProfile) -> Catalogue:
     return extended
 
 
-__all__ = ["MirrorOptions", "Runtime"]
+__all__ = ["Runtime"]

@@ -16,6 +16,9 @@ URL::
   dropped and counted (stale commands to a robot are worse than none).
 * ``frame_timeout`` (seconds): a partial frame older than this is discarded.
 
+The port is opened exclusively (``flock``): a second process asking for the same radio
+gets a clear error instead of silently splitting its bytes with the relay.
+
 The framing is :mod:`edge_vis.jaus.serial` (sans-I/O). This module opens the port with
 pyserial (which sets the line discipline and speed) and then reads and writes its file
 descriptor from the asyncio loop with ``add_reader``/``add_writer``: no threads. The peer
@@ -91,7 +94,7 @@ class SerialLink(Link):
     def _attach(self) -> None:
         port = serial.Serial(
             port=self.path, baudrate=self.baud, timeout=0, write_timeout=0,
-            rtscts=self.rtscts, exclusive=False,
+            rtscts=self.rtscts, exclusive=True,  # a second process must not steal bytes
         )
         self._port = port
         self._fd = port.fileno()

@@ -258,7 +258,7 @@ REPORT_RULES = (
 
 COMMAND_RULES = (
     Cmd("VelocityCommand", "SetVelocityCommand", VELOCITY_DRIVER, "velocity",
-        {"command_type": Build("", _current, "= 0, the current command"),
+        {"command_type": Build("(fixed)", _current, "= 0, the current command"),
          **{jaus: Put(dds, -limit, limit) for dds, jaus, limit in _VELOCITY_CMD}},
         stop={"command_type": 0, **{jaus: 0.0 for _, jaus, _ in _VELOCITY_CMD}},
         doc="motion: dead-man stop = all zero"),
@@ -484,7 +484,8 @@ class WaypointMissions:
             mission.state = "EXECUTING"
         # ExecuteList is also a manipulator message: encode mobility's
         return Command(vehicle_id, mission.operator_id, "waypoint", name, fields,
-                       mission.service, service_set="mobility")
+                       mission.service,
+                       service_set="mobility" if name == "ExecuteList" else None)
 
     def _waypoint(self, vehicle_id: str, index: int) -> Command:
         mission = self.missions[vehicle_id]

@@ -54,6 +54,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="spool quota (suffix K/M/G); new transfers beyond it are refused")
     parser.add_argument("--max-rate", type=parse_rate, metavar="BPS",
                         help="bulk budget in bit/s for forwarding (suffix k/M/G)")
+    parser.add_argument("--forward-lanes", type=int, default=1, metavar="N",
+                        help="parallel UDT connections per forwarded file (1-16, default 1)")
     parser.add_argument("--domain", type=int, metavar="N",
                         help="publish ImageProduct/ImageData/TransferStatus on DDS domain N")
     parser.add_argument("--partition", action="append", default=[], metavar="NAME",
@@ -80,6 +82,8 @@ def run(args: argparse.Namespace) -> int:
         forward = [udt.parse_address(f) for f in args.forward]
     except ValueError as exc:
         raise ConfigError(f"address: {exc}") from None
+    if not 1 <= args.forward_lanes <= 16:
+        raise ConfigError(f"--forward-lanes {args.forward_lanes}: must be 1..16")
     bridge = _bridge(args.domain, args.partition) if args.domain is not None else None
     stop = threading.Event()
 
@@ -93,6 +97,7 @@ def run(args: argparse.Namespace) -> int:
         args.dir, listen, spool_dir=args.spool, forward=forward, quota_bytes=args.quota,
         publish=None if bridge is None else bridge.publish,
         publish_data=not args.no_image_data, max_rate_bps=args.max_rate,
+        forward_lanes=args.forward_lanes,
     )
     try:
         service.start()

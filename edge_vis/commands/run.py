@@ -26,7 +26,8 @@ from edge_vis.config import (
 )
 from edge_vis.errors import ConfigError
 from edge_vis.jaus.address import JausAddress
-from edge_vis.runtime import MirrorOptions, Runtime
+from edge_vis.mirror import Mirror
+from edge_vis.runtime import Runtime
 from edge_vis.service import Supervisor
 
 NAME = "run"
@@ -46,8 +47,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--domain", type=int, help="DDS domain id")
     parser.add_argument("--no-dds", action="store_true",
                         help="JAUS side only: do not join DDS (for testing links)")
-    parser.add_argument("--mirror-udp", metavar="HOST:PORT",
-                        help="copy every JAUS datagram seen on any link to this UDP address")
+    parser.add_argument("--mirror-udp", type=int, metavar="PORT",
+                        help="copy every JAUS datagram seen on any link to this UDP port on "
+                        "127.0.0.1 (for Wireshark or edge-vis decode)")
     parser.add_argument("--mirror-pcap", type=Path, metavar="FILE",
                         help="write every JAUS datagram seen on any link to a pcap file")
     parser.add_argument("--duration", type=float, metavar="SECONDS",
@@ -72,14 +74,10 @@ def build_profile(args: argparse.Namespace) -> RelayProfile:
     return dataclasses.replace(profile, **changes) if changes else profile
 
 
-def _mirror(args: argparse.Namespace) -> MirrorOptions:
-    udp = None
-    if args.mirror_udp:
-        host, _, port = args.mirror_udp.rpartition(":")
-        if not host or not port.isdigit():
-            raise ConfigError([("--mirror-udp", "", f"{args.mirror_udp!r} is not HOST:PORT")])
-        udp = (host, int(port))
-    return MirrorOptions(udp=udp, pcap=args.mirror_pcap)
+def _mirror(args: argparse.Namespace) -> Mirror | None:
+    if args.mirror_udp is None and args.mirror_pcap is None:
+        return None
+    return Mirror(udp_port=args.mirror_udp, pcap=args.mirror_pcap)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -52,6 +52,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--confidence", type=float, help="ATR confidence 0..1")
     parser.add_argument("--position", metavar="LAT,LON[,DEPTH]",
                         help="ATR target position, degrees and metres")
+    parser.add_argument("--lanes", type=int, default=1, metavar="N",
+                        help="parallel UDT connections per file (1-16, default 1); on a lossy "
+                             "radio 4 lanes carry several times what one does")
     parser.add_argument("--give-up", type=float, default=120.0, metavar="SECONDS",
                         help="stop retrying after this long without progress (default 120)")
 
@@ -130,7 +133,10 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--to: {exc}") from None
     atr = _atr(udt, args)
     failures = 0
-    with udt.BulkSender(to, max_rate_bps=args.max_rate, give_up_after=args.give_up) as sender:
+    if not 1 <= args.lanes <= 16:
+        raise ConfigError(f"--lanes {args.lanes}: must be 1..16")
+    with udt.BulkSender(to, max_rate_bps=args.max_rate, give_up_after=args.give_up,
+                        lanes=args.lanes) as sender:
         for path in args.files:
             try:
                 manifest = udt.manifest_for_file(

@@ -7,6 +7,7 @@ destination a broadcast.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 SUBSYSTEM_WILDCARD = 0xFFFF
@@ -45,7 +46,9 @@ class JausAddress:
 
     @classmethod
     def from_id(cls, value: int) -> JausAddress:
-        """Build from the 32-bit integer ID."""
+        """Build from the 32-bit integer ID (cached: every packet header carries two)."""
+        if cls is JausAddress:
+            return _from_id(value)
         return cls((value >> 16) & 0xFFFF, (value >> 8) & 0xFF, value & 0xFF)
 
     @property
@@ -72,6 +75,11 @@ class JausAddress:
 
     def __str__(self) -> str:
         return f"{self.subsystem}.{self.node}.{self.component}"
+
+
+@functools.lru_cache(maxsize=4096)
+def _from_id(value: int) -> JausAddress:
+    return JausAddress((value >> 16) & 0xFFFF, (value >> 8) & 0xFF, value & 0xFF)
 
 
 BROADCAST = JausAddress(SUBSYSTEM_WILDCARD, NODE_WILDCARD, COMPONENT_WILDCARD)

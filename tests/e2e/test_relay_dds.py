@@ -112,3 +112,35 @@ def test_vehicle_ignoring_events_is_polled(domain_id: int, partition: str) -> No
         assert len(peer.names("QueryGlobalPose")) >= 3  # ... so the relay polls
 
     asyncio.run(with_relay(domain_id, partition, confirm_events=False, body=body))
+
+
+def test_mirror_writes_every_datagram_to_a_pcap(tmp_path) -> None:
+    from edge_vis.catalogue import default_catalogue
+    from edge_vis.jaus.transport import unpack_datagram
+    from edge_vis.mirror import Mirror
+    from edge_vis.pcap import read_udp
+
+    capture = tmp_path / "relay.pcap"
+
+    async def main() -> None:
+        loop = asyncio.get_running_loop()
+        peer = JausPeer(JausAddress(78, 1, 1), "MirrorBot")
+        await loop.create_datagram_endpoint(lambda: peer, local_addr=("127.0.0.34", 3794))
+        base = load_default_profile()
+        profile = dataclasses.replace(
+            base, links=(LinkProfile("lan", "udp://127.0.0.33:3794?peers=127.0.0.34:3794"),),
+            discovery=dataclasses.replace(base.discovery, period=0.5))
+        runtime = Runtime(profile, publisher_factory=None, mirror=Mirror(pcap=capture))
+        await runtime.start()
+        await wait_for(lambda: bool(peer.names("QueryServices")), 10, "discovery")
+        await runtime.stop()
+        peer.close()
+
+    asyncio.run(main())
+    catalogue = default_catalogue()
+    names = [catalogue.decode(p.payload).name
+             for d in read_udp(capture.read_bytes()) for p in unpack_datagram(d.payload)
+             if p.message_code is not None]
+    # both directions are in the capture: the relay's queries and the vehicle's answers
+    assert "QueryIdentification" in names and "ReportIdentification" in names
+    assert "QueryServices" in names and "ReportServices" in names

@@ -91,7 +91,10 @@ class Harness:
         actions = self.engine.drain_actions()
         for action in actions:
             if isinstance(action, SendMessage):  # must be encodable as emitted
-                self.catalogue.encode(action.name, dict(action.fields))
+                name: str | int = action.name
+                if action.service_set is not None:  # a name two message sets use
+                    name = self.catalogue.by_name(action.name, action.service_set).code
+                self.catalogue.encode(name, dict(action.fields))
         self.log.extend(actions)
         return actions
 

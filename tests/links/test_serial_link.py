@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 from linkkit import Pty, msg, run, until
 
+from edge_vis.errors import LinkError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.serial import SerialDeframer, SerialFrame, frame
 from edge_vis.jaus.transport import Packet
@@ -151,5 +152,22 @@ def test_unplugged_device_comes_back_without_restart(tmp_path: Path) -> None:
             await link.close()
             if second is not None:
                 second.close()
+
+    run(scenario())
+
+
+def test_a_device_in_use_is_refused_not_shared() -> None:
+    async def scenario() -> None:
+        radio = Pty()
+        first = create_link(f"serial://{radio.path}")
+        second = create_link(f"serial://{radio.path}")
+        await first.open(Inbox())
+        try:
+            with pytest.raises(LinkError, match="cannot open"):
+                await second.open(Inbox())
+        finally:
+            await first.close()
+            await second.close()
+            radio.close()
 
     run(scenario())

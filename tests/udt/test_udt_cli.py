@@ -32,8 +32,8 @@ def test_send_image_exits_0_when_the_hash_is_confirmed(tmp_path: Path, make_file
         host, port = ops.address
         proc = subprocess.run(
             edge_vis("send-image", str(path), "--to", f"{host}:{port}", "--vehicle", "uuv3",
-                     "--max-rate", "40M", "--target-class", "mine-like", "--confidence",
-                     "0.8", "--position", "36.5,-121.9,12"),
+                     "--max-rate", "40M", "--lanes", "2", "--target-class", "mine-like",
+                     "--confidence", "0.8", "--position", "36.5,-121.9,12"),
             capture_output=True, text=True, timeout=60,
         )
     assert proc.returncode == 0, proc.stderr
