@@ -40,6 +40,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from edge_vis.bandwidth.demands import FleetPlanner, VehicleWants
 from edge_vis.config import RelayProfile
 from edge_vis.engine.actions import (
     Action,
@@ -129,8 +130,12 @@ class Engine:
         *,
         catalogue: InnerCodec | None = None,
         wall_offset: float = 0.0,
+        planner: FleetPlanner | None = None,
     ) -> None:
         self.profile = profile
+        #: plans report rates to fit the links' budgets (None: the profiles' rates as is)
+        self.planner = planner
+        self._plan_dirty = False
         if isinstance(translators, TranslationManager):
             self.manager = translators
         elif translators is not None:
@@ -150,6 +155,7 @@ class Engine:
         self._shutdown_deadline: float | None = None
         self._done = False
         self._controlled_services = self.manager.controlled_services()
+        self._dropped: set[tuple[str, str]] = set()
         # The timer pass visits every vehicle; an input only changes the vehicles it
         # touches, so between deadlines only those are visited (see _run).
         self._touched: dict[int, Vehicle] = {}
@@ -316,6 +322,8 @@ class Engine:
                 vehicle.profile = vp
             for sub in vehicle.subscriptions.values():
                 sub.profile = profile.events
+                if self.planner is not None:
+                    continue  # the planner decides the rates (below)
                 rate = min(profile.report_rate(sub.report, defaults.get(sub.report, sub.rate),
                                                vehicle.profile), 1092.0)
                 if rate != sub.rate:
@@ -327,7 +335,75 @@ class Engine:
             for ctl in vehicle.controls.values():
                 ctl.profile = profile.control
                 ctl.authority = profile.authority
+        if self.planner is not None:
+            self.planner.relay = profile
+            self.replan(now)
         return not_applied
+
+    # == bandwidth plan =====================================================================
+
+    def replan(self, now: float) -> None:
+        """Plan report rates again and update the events whose rate changed."""
+        planner = self.planner
+        if planner is None:
+            return
+        self._plan_dirty = False
+        specs = {spec.report: spec for _tr, spec in self.manager.wanted_reports()}
+        wants = []
+        links: dict[str, str] = {}
+        for vehicle in self.vehicles.values():
+            if not vehicle.online or not vehicle.subscriptions:
+                continue
+            vp = vehicle.profile
+            link = planner.link_for(vp.link if vp else "", vehicle.address)
+            if not link:
+                continue
+            links[vehicle.vehicle_id] = link
+            reports = tuple(
+                (specs[sub.report], sub.state is SubscriptionState.POLLING)
+                for sub in vehicle.subscriptions.values()
+                if sub.report in specs and sub.state is not SubscriptionState.CANCELLING
+            )
+            wants.append(VehicleWants(vehicle.vehicle_id, link, vp, reports))
+        planner.plan(wants)
+        for vehicle in self.vehicles.values():
+            link = links.get(vehicle.vehicle_id)
+            if link is None:
+                continue
+            for sub in vehicle.subscriptions.values():
+                rate = planner.rate(link, vehicle.vehicle_id, sub.report)
+                if rate is None:
+                    continue
+                self._apply_rate(vehicle, sub, rate, now)
+
+    def set_link_rate(self, link: str, bit_rate: float, now: float) -> None:
+        """The measured rate of ``link`` changed: plan again."""
+        if self.planner is not None and self.planner.set_link_rate(link, bit_rate):
+            self.replan(now)
+
+    def _apply_rate(self, vehicle: Vehicle, sub: Subscription, rate: float, now: float) -> None:
+        key = (vehicle.vehicle_id, sub.report)
+        if rate <= 0:
+            if key not in self._dropped:
+                self._dropped.add(key)
+                log.warning("vehicle %s: %s dropped: the link cannot carry even its minimum",
+                            vehicle.vehicle_id, sub.report)
+                if sub.state is not SubscriptionState.NEW:
+                    self._send_requests(sub.provider, sub.cancel(now))
+                sub.reason = "dropped by the bandwidth plan"
+            return
+        if key in self._dropped:
+            self._dropped.discard(key)
+            sub.rate = rate
+            sub.state = SubscriptionState.NEW
+            self._send_requests(sub.provider, sub.start(now))
+            self._touch(vehicle)
+            return
+        if abs(rate - sub.rate) > 1e-9:
+            log.info("vehicle %s: %s planned at %.2f Hz (was %.2f)", vehicle.vehicle_id,
+                     sub.report, rate, sub.rate)
+            self._send_requests(sub.provider, sub.update_rate(rate, now))
+            self._touch(vehicle)
 
     # == start-up, discovery and identification ========================================
 
@@ -474,6 +550,7 @@ class Engine:
         for slot in vehicle.commands.values():
             self.counters["commands_dropped"] += slot.clear()
         self.counters["vehicles_lost"] += 1
+        self._plan_dirty = True
         self._changed(vehicle, "offline", now)
 
     def _liveness(self, vehicle: Vehicle, now: float) -> None:
@@ -502,6 +579,7 @@ class Engine:
     def _setup(self, vehicle: Vehicle, now: float) -> None:
         if self._shutting_down or not vehicle.online or not vehicle.services_known:
             return
+        starting = []
         for _tr, spec in self.manager.wanted_reports():
             providers = vehicle.providers(spec.service)
             if not providers:
@@ -515,6 +593,12 @@ class Engine:
                                    self._encode_query, vehicle.next_request_id)
                 vehicle.subscriptions[key] = sub
             if sub.state is SubscriptionState.NEW:
+                starting.append(sub)
+        if starting and self.planner is not None:
+            self.replan(now)  # a vehicle joined: rates for it (and its link's others) first
+        for sub in starting:
+            if sub.state is SubscriptionState.NEW \
+                    and (vehicle.vehicle_id, sub.report) not in self._dropped:
                 self._send_requests(sub.provider, sub.start(now))
         self._update_control(vehicle, now)
 
@@ -613,8 +697,9 @@ class Engine:
         request_id = pick(fields, "request_id")
         for sub in vehicle.subscriptions.values():
             if sub.provider == source and sub.request_id == request_id:
-                sub.on_confirm(int(pick(fields, "event_id", 0)),
-                               float(pick(fields, "confirmed_periodic_rate", 0.0)), now)
+                self._send_requests(source, sub.on_confirm(
+                    int(pick(fields, "event_id", 0)),
+                    float(pick(fields, "confirmed_periodic_rate", 0.0)), now))
                 if (sub.state is SubscriptionState.ACTIVE
                         and source not in vehicle.event_timeout_asked):
                     vehicle.event_timeout_asked.add(source)
@@ -628,6 +713,8 @@ class Engine:
         for sub in vehicle.subscriptions.values():
             if sub.provider == source and sub.request_id == request_id:
                 self._send_requests(source, sub.on_reject(pick(fields, "response_code"), now))
+                if sub.state is SubscriptionState.POLLING:
+                    self._plan_dirty = True
                 return
 
     def _on_event_timeout(self, vehicle: Vehicle, source: JausAddress,
@@ -800,6 +887,8 @@ class Engine:
                 self._vehicle_due = due
         if self._touched:  # a visit touched another vehicle: settle it at the next pass
             self._due_valid = False
+        if self._plan_dirty and self.planner is not None and not self._shutting_down:
+            self.replan(now)
         if self._shutting_down:
             self._check_shutdown(now)
 
@@ -819,7 +908,10 @@ class Engine:
         if self._jaus_control(vehicle) != before:
             self._changed(vehicle, "control", now)
         for sub in vehicle.subscriptions.values():
+            polled = sub.state is SubscriptionState.POLLING
             self._send_requests(sub.provider, sub.poll(now))
+            if polled != (sub.state is SubscriptionState.POLLING):
+                self._plan_dirty = True  # a poll costs a query too: plan again
         if not self._shutting_down:
             self._pump_commands(vehicle, now)
 

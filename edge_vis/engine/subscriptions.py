@@ -25,6 +25,12 @@ provider confirms but does not deliver, and the report is polled instead.
 
 Rule 5: when interest ends (relay stopping), CancelEvent with the event ID.
 
+Rule 6: a new planned rate (the link's bandwidth plan changed) updates an active event in
+place with UpdateEvent (same event ID, no gap in the data). A provider that rejects the
+update gets the event created again at the new rate; one that ignores it is refreshed at
+the new rate after the response timeout. A rate planned while CreateEvent is in flight is
+sent as UpdateEvent once the event is confirmed.
+
 =============  ======================================  ============  ======================
 state          input                                   new state     output
 =============  ======================================  ============  ======================
@@ -37,6 +43,7 @@ ACTIVE         no Event for a while (periodic)         CREATING      CreateEvent
 ACTIVE         quiet again after MAX_STALE re-creates  POLLING       query at the rate
 POLLING        period elapsed                          POLLING       query
 ACTIVE         cancel                                  CANCELLING    CancelEvent
+ACTIVE         new planned rate                        ACTIVE        UpdateEvent
 CANCELLING     ConfirmEventRequest / timeout           DONE          -
 any            vehicle lost                            NEW           -
 =============  ======================================  ============  ======================
@@ -120,6 +127,10 @@ class Subscription:
         self.stale_count = 0
         #: a CancelEvent that timed out
         self.unanswered = False
+        #: the rate the last CreateEvent/UpdateEvent asked for
+        self.requested_rate: float | None = None
+        self._updating = False
+        self.updates_sent = 0
 
     # -- queries -----------------------------------------------------------------------
 
@@ -146,6 +157,7 @@ class Subscription:
     def on_confirm(self, event_id: int, rate: float, now: float) -> list[Request]:
         """ConfirmEventRequest for our current request ID."""
         self.request_id = None
+        self._updating = False
         if self.state is SubscriptionState.CANCELLING:
             self._done()
             return []
@@ -157,6 +169,9 @@ class Subscription:
         self.deadline = now + self.refresh_period
         if first and not self.on_change:
             self.stale_deadline = now + self._stale_after()
+        if (first and not self.on_change and self.requested_rate is not None
+                and abs(self.requested_rate - self.rate) > 1e-9):
+            return self._update(now)  # the plan changed while CreateEvent was in flight
         return []
 
     def on_reject(self, code: int | None, now: float) -> list[Request]:
@@ -165,6 +180,10 @@ class Subscription:
         if self.state is SubscriptionState.CANCELLING:
             self._done()
             return []
+        if self._updating and self.state is SubscriptionState.ACTIVE:
+            self._updating = False  # the provider does not update events: create it again
+            self.attempts = 0
+            return self._create(now, refresh=True)
         self.reason = f"event rejected (response code {code})"
         return self._start_polling(now)
 
@@ -205,6 +224,35 @@ class Subscription:
         if self.state is SubscriptionState.POLLING:
             self.deadline = now + self._period()
         return []
+
+    def update_rate(self, rate: float, now: float) -> list[Request]:
+        """A new planned rate: UpdateEvent for an active event, re-time polling (Rule 6)."""
+        if abs(rate - self.rate) < 1e-9:
+            return []
+        self.rate = rate
+        if self.state is SubscriptionState.ACTIVE and not self.on_change \
+                and self.event_id is not None:
+            if self.stale_deadline is not None:
+                self.stale_deadline = now + self._stale_after()
+            return self._update(now)
+        if self.state is SubscriptionState.POLLING:
+            self.deadline = now + self._period()
+        return []
+
+    def _update(self, now: float) -> list[Request]:
+        self.request_id = self._next_request_id()
+        self._updating = True
+        self.requested_rate = self.rate
+        self.updates_sent += 1
+        # unanswered: the refresh at this deadline re-creates the event at the new rate
+        self.deadline = now + self.profile.response_timeout
+        return [Request("UpdateEvent", {
+            "request_id": self.request_id,
+            "event_type": 1 if self.on_change else 0,
+            "requested_periodic_rate": 0.0 if self.on_change else self.rate,
+            "event_id": self.event_id,
+            "query_message": self._encode_query(self.query, self.query_fields),
+        })]
 
     def on_lost(self) -> None:
         """The provider went silent: its events are gone; start over when it returns."""
@@ -260,6 +308,8 @@ class Subscription:
         if not refresh:
             self.state = SubscriptionState.CREATING
         self.attempts += 1
+        self._updating = False
+        self.requested_rate = self.rate
         self.request_id = self._next_request_id()
         self.deadline = now + (self.profile.response_timeout if not refresh
                                else self.refresh_period)

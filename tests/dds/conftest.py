@@ -1,75 +1,7 @@
-"""Fixtures for tests against real Cyclone DDS participants.
-
-Cyclone is configured for loopback only (``edge_vis.dds.loopback_config``: interface
-127.0.0.1, no multicast, unicast discovery to 127.0.0.1) through ``CYCLONEDDS_URI``, set
-for the whole session so child processes inherit it. Every test gets its own DDS domain id
-and a partition of its own, so concurrent test runs on the same host never see each
-other's samples.
-"""
-
-from __future__ import annotations
-
-import itertools
-import os
-import uuid
-from collections.abc import Callable, Iterator
-from typing import TYPE_CHECKING, Any
-
-import pytest
-
-if TYPE_CHECKING:
-    from edge_vis.dds import DdsBridge
+"""Tests of the DDS side; the fixtures (loopback Cyclone, domain ids, bridges) are in
+``tests/conftest.py``."""
 
 try:
     import cyclonedds  # noqa: F401
 except ImportError:  # Cyclone DDS is not installed: only the IDL command tests can run
     collect_ignore_glob = ["test_[!i]*.py", "test_idl_model.py"]
-
-# Domain ids 0..232 are valid; start at a pid-dependent point to spread concurrent runs.
-_DOMAIN_IDS = itertools.count(0)
-_DOMAIN_BASE = 20 + os.getpid() % 150
-
-
-@pytest.fixture(scope="session", autouse=True)
-def loopback_cyclone() -> Iterator[str]:
-    """Point Cyclone DDS at the loopback interface for the whole session."""
-    try:
-        from edge_vis.dds import loopback_config
-    except ImportError:  # no Cyclone DDS: nothing to configure
-        yield ""
-        return
-    config = loopback_config()
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("CYCLONEDDS_URI", config)
-        yield config
-
-
-@pytest.fixture
-def domain_id() -> int:
-    """A DDS domain id no other test of this session uses."""
-    return _DOMAIN_BASE + next(_DOMAIN_IDS) % 60
-
-
-@pytest.fixture
-def partition() -> str:
-    """A DDS partition unique to this test."""
-    return f"edge-vis-test-{uuid.uuid4().hex[:12]}"
-
-
-@pytest.fixture
-def make_bridge(domain_id: int, partition: str) -> Iterator[Callable[..., DdsBridge]]:
-    """Factory of bridges on this test's domain and partition, closed at teardown."""
-    from edge_vis.dds import DdsBridge
-
-    bridges: list[DdsBridge] = []
-
-    def make(**kwargs: Any) -> DdsBridge:
-        kwargs.setdefault("domain_id", domain_id)
-        kwargs.setdefault("partitions", (partition,))
-        bridge = DdsBridge(**kwargs)
-        bridges.append(bridge)
-        return bridge
-
-    yield make
-    for bridge in bridges:
-        bridge.close()
