@@ -26,12 +26,14 @@ import tomllib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any, TypeVar
 from urllib.parse import urlsplit
 
 from edge_vis.bandwidth.linkspec import SPEC_KEYS, LinkSpec, load_link_spec, read_link_spec
 from edge_vis.errors import ConfigError
 from edge_vis.jaus.address import JausAddress
+from edge_vis.security import OperatorPolicy
 
 T = TypeVar("T")
 
@@ -168,6 +170,20 @@ class DdsProfile:
 
 
 @dataclass(frozen=True, slots=True)
+class LimitsProfile:
+    """Bounds on tables that grow with what the network sends (``[limits]``).
+
+    Past a bound the newest entry is refused (vehicles, probes) or the oldest forgotten
+    (routes), and a counter says so; nothing already accepted is lost.
+    """
+
+    max_vehicles: int = 256
+    max_routes: int = 4096
+    max_duplicates: int = 65536
+    max_unidentified: int = 1024
+
+
+@dataclass(frozen=True, slots=True)
 class TranslatorSelection:
     """Which translators run. ``enabled`` of ``("*",)`` means every installed one.
 
@@ -206,6 +222,10 @@ class RelayProfile:
     source: str = ""
     report_minimums: Mapping[str, float] = field(default_factory=dict)
     report_priorities: Mapping[str, int] = field(default_factory=dict)
+    #: who may request control; a profile built in code is open, a TOML profile that
+    #: lists no ``[[operators]]`` is closed unless ``access.any_operator = true``
+    operators: OperatorPolicy = field(default_factory=OperatorPolicy.open)
+    limits: LimitsProfile = field(default_factory=LimitsProfile)
 
     def vehicle_by_subsystem(self, subsystem: int) -> VehicleProfile | None:
         """The vehicle profile claiming JAUS ``subsystem``, if any."""
@@ -591,6 +611,8 @@ def from_mapping(data: Mapping[str, Any], *, file: str = "",
     m.finish()
 
     report_rates, report_minimums, report_priorities = _report_table(root.table("report_rates"))
+    operators = _operators(root)
+    limits = _limits(root)
 
     vehicles: list[VehicleProfile] = []
     for i, item in enumerate(root.get("vehicles", list, [])):
@@ -640,7 +662,48 @@ def from_mapping(data: Mapping[str, Any], *, file: str = "",
         raise ConfigError(problems.items)
     return RelayProfile(jaus_id, authority, name, tuple(links), dds, translators, discovery,
                         control, events, commands, report_rates, tuple(vehicles), tuple(jsidl),
-                        file, report_minimums, report_priorities)
+                        file, report_minimums, report_priorities, operators, limits)
+
+
+def _operators(root: _Reader) -> OperatorPolicy:
+    """``[[operators]] {id, max_authority}`` and ``[access] any_operator`` (default false)."""
+    access = root.table("access")
+    any_operator = access.get("any_operator", bool, False)
+    access.finish()
+    allowed: dict[str, int] = {}
+    for i, item in enumerate(root.get("operators", list, [])):
+        key = f"operators[{i}]"
+        if not isinstance(item, Mapping):
+            root.problem(key, "expected a table {id, max_authority}")
+            continue
+        sub = _Reader(item, root.file, key, root.problems)
+        operator_id = sub.get("id", str, "")
+        max_authority = sub.get("max_authority", int, 255, _byte)
+        sub.finish()
+        if not operator_id:
+            sub.problem("id", "missing: every operator needs an id")
+        elif operator_id in allowed:
+            sub.problem("id", f"duplicate operator id {operator_id!r}")
+        else:
+            allowed[operator_id] = max_authority
+    return OperatorPolicy(MappingProxyType(allowed), any_operator)
+
+
+def _limits(root: _Reader) -> LimitsProfile:
+    t = root.table("limits")
+
+    def at_least_one(value: int) -> str | None:
+        return None if value >= 1 else f"must be at least 1, got {value}"
+
+    base = LimitsProfile()
+    limits = LimitsProfile(
+        t.get("max_vehicles", int, base.max_vehicles, at_least_one),
+        t.get("max_routes", int, base.max_routes, at_least_one),
+        t.get("max_duplicates", int, base.max_duplicates, at_least_one),
+        t.get("max_unidentified", int, base.max_unidentified, at_least_one),
+    )
+    t.finish()
+    return limits
 
 
 def load_profile(path: str | Path) -> RelayProfile:

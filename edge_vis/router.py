@@ -38,7 +38,9 @@ after ``ack_timeout`` s up to ``ack_retries`` times, then reported as
 bandwidth is paced by a byte budget refilled at that rate (cost = data size + the link's
 framing overhead); a link reported busy (:meth:`Router.set_busy`) holds everything.
 Queued packets leave highest priority first; when a link's queue exceeds its byte limit
-the oldest packet of the lowest non-empty priority is dropped and counted.
+the oldest packet of the lowest non-empty priority is dropped and counted. On a link added
+with ``latest_wins`` a report, Event or query waiting at a low priority is replaced by a
+newer one of the same kind (:func:`edge_vis.bandwidth.scheduler.latest_wins_key`).
 
 State per link:   ``idle`` ─(budget spent / busy)→ ``backlogged`` ─(queue empty)→ ``idle``
 """
@@ -50,6 +52,7 @@ from collections import Counter, deque
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 
+from edge_vis.bandwidth.scheduler import LATEST_WINS_MAX_PRIORITY, latest_wins_key
 from edge_vis.errors import EncodeError, LocalProtocolError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import JTS_MAX_PAYLOAD, AckNak, Broadcast, DataFlags, Packet
@@ -139,6 +142,7 @@ class _LinkState:
     )
     drops: Counter[str] = field(default_factory=Counter)
     sent: int = 0
+    latest_wins: bool = False
 
     @property
     def depth(self) -> int:
@@ -222,15 +226,18 @@ class Router:
         bandwidth_bps: float | None = None,
         overhead: int = 29,
         queue_limit: int = 32768,
+        latest_wins: bool = False,
     ) -> None:
         """Register a link. ``overhead``: framing bytes added per packet on the medium
         (29 for UDP/IP + version byte, about 18 for serial); ``queue_limit``: bytes held
-        while the link is backlogged before the lowest priority is dropped."""
+        while the link is backlogged before the lowest priority is dropped;
+        ``latest_wins``: a newer report or query replaces a queued older one."""
         # a budget that may go negative: one packet of any size can always leave, and the
         # burst stays small (50 ms of the link) so a slow radio is not flooded at once
         burst = max(64.0, (bandwidth_bps or 0.0) / 8 * 0.05)
         self._links[name] = _LinkState(
-            name, mtu, bandwidth_bps, overhead, queue_limit, burst, tokens=burst
+            name, mtu, bandwidth_bps, overhead, queue_limit, burst, tokens=burst,
+            latest_wins=latest_wins,
         )
 
     def remove_link(self, name: str) -> None:
@@ -575,6 +582,8 @@ class Router:
         queues = state.queues
         for p in packets:
             cost = len(p.payload) + 14 + overhead
+            if state.latest_wins and (p.priority & 3) <= LATEST_WINS_MAX_PRIORITY:
+                self._supersede(state, peer, p)
             queues[p.priority & 3].append((peer, p, cost))
             state.queued_bytes += cost
         while state.queued_bytes > state.queue_limit:
@@ -585,6 +594,21 @@ class Router:
             state.drops[reason] += 1
             self.counters[f"dropped: {reason}"] += 1
         self._drain(state, now, actions)
+
+    def _supersede(self, state: _LinkState, peer: Peer | None, packet: Packet) -> None:
+        """Remove the queued older copy of what ``packet`` replaces (latest wins)."""
+        key = latest_wins_key(packet)
+        if key is None:
+            return
+        queue = state.queues[packet.priority & 3]
+        for index, (queued_peer, queued, cost) in enumerate(queue):
+            if queued_peer == peer and latest_wins_key(queued) == key:
+                del queue[index]
+                state.queued_bytes -= cost
+                reason = f"superseded (priority {packet.priority & 3})"
+                state.drops[reason] += 1
+                self.counters[f"dropped: {reason}"] += 1
+                return
 
     def _drain(self, state: _LinkState, now: float, actions: list[Action]) -> None:
         if state.busy:

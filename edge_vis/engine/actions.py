@@ -41,6 +41,9 @@ class SendMessage:
     fields: Mapping[str, Any] = field(default_factory=dict)
     priority: int = PRIORITY_STANDARD
     service_set: str | None = None
+    #: scheduling class on the link (control, command, liveness, telemetry, bulk; "" =
+    #: by ``priority`` only); the link profile maps it to a JAUS priority
+    traffic_class: str = ""
 
 
 @dataclass(frozen=True, slots=True)

@@ -846,7 +846,7 @@ class Engine:
                 continue
             destination = vehicle.providers(command.service)[0]
             self._actions.append(SendMessage(destination, command.name, dict(command.fields),
-                                             command.priority, command.service_set))
+                                             command.priority, command.service_set, "command"))
             self.counters["commands_sent"] += 1
 
     # == the timer pass ===================================================================
@@ -951,16 +951,18 @@ class Engine:
     def _encode_query(self, name: str, fields: Mapping[str, Any]) -> bytes:
         return self.catalogue.encode(name, fields)
 
-    def _send(self, destination: JausAddress, name: str, fields: Mapping[str, Any]) -> None:
-        self._actions.append(SendMessage(destination, name, dict(fields)))
+    def _send(self, destination: JausAddress, name: str, fields: Mapping[str, Any],
+              traffic_class: str = "liveness") -> None:
+        self._actions.append(SendMessage(destination, name, dict(fields),
+                                         traffic_class=traffic_class))
 
     def _send_outgoing(self, destination: JausAddress, items: Sequence[Outgoing]) -> None:
         for item in items:
-            self._send(destination, item.name, item.fields)
+            self._send(destination, item.name, item.fields, "control")
 
     def _send_requests(self, destination: JausAddress, items: Sequence[Request]) -> None:
         for item in items:
-            self._send(destination, item.name, item.fields)
+            self._send(destination, item.name, item.fields, "telemetry")
 
     def _apply(self, actions: Sequence[Action], now: float) -> None:
         for action in actions:
