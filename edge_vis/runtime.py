@@ -26,6 +26,9 @@ from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 from edge_vis import plugins
+from edge_vis.bandwidth.demands import FleetPlanner
+from edge_vis.bandwidth.linkspec import DEFAULT_PRIORITIES, LinkSpec
+from edge_vis.bandwidth.scheduler import class_names, priority_for
 from edge_vis.catalogue import Catalogue, default_catalogue
 from edge_vis.config import RelayProfile
 from edge_vis.engine.actions import Publish, SendMessage, ShutdownComplete
@@ -98,6 +101,8 @@ class Runtime:
         self._status_task: asyncio.Task[None] | None = None
         self._log = _RateLimitedLog()
         self.first_discovery_at: float | None = None
+        #: the bandwidth planner, when a link has a link profile (see edge_vis.bandwidth)
+        self.planner: FleetPlanner | None = None
 
     # -- life cycle ------------------------------------------------------------------------
     async def start(self) -> None:
@@ -105,8 +110,12 @@ class Runtime:
         loop = self._loop = asyncio.get_running_loop()
         self._stopped = asyncio.Event()
         self._shutdown_done = asyncio.Event()
+        specs = {lp.name: lp.spec for lp in self.profile.links if lp.spec is not None}
+        self.planner = (FleetPlanner(self.profile, specs, self.catalogue, self._link_of)
+                        if specs else None)
         self.engine = Engine(
-            self.profile, catalogue=self.catalogue, wall_offset=time.time() - loop.time()
+            self.profile, catalogue=self.catalogue, wall_offset=time.time() - loop.time(),
+            planner=self.planner,
         )
         if self._publisher_factory == "dds":
             self.publisher = self._open_dds()
@@ -133,9 +142,29 @@ class Runtime:
             self._mirror.attach(link)
         await link.open(self._on_packets, self._on_link_state)
         self.links[name] = link
+        spec = self._spec(name)
+        if spec is not None and spec.limited:
+            # paced at the plan's budget, fragmented to the radio's MTU, stale telemetry
+            # replaced by newer (edge_vis.bandwidth.scheduler)
+            self.router.add_link(name, mtu=min(link.mtu, spec.mtu),
+                                 bandwidth_bps=spec.budget_bps, overhead=spec.overhead,
+                                 latest_wins=True)
+            log.info("link %s open: %s (mtu %d, budget %.0f B/s)", name, url,
+                     min(link.mtu, spec.mtu), spec.budget_bytes)
+            return
         self.router.add_link(name, mtu=link.mtu, bandwidth_bps=link.bandwidth_bps,
                              overhead=link.overhead)
         log.info("link %s open: %s (mtu %d)", name, url, link.mtu)
+
+    def _spec(self, link: str) -> LinkSpec | None:
+        for lp in self.profile.links:
+            if lp.name == link:
+                return lp.spec
+        return None
+
+    def _link_of(self, address: Any) -> str | None:
+        route = self.router.lookup(address)
+        return route.link if route is not None else None
 
     def _open_dds(self) -> Any:
         from edge_vis.dds.bridge import DdsBridge  # imported lazily: cyclonedds is optional
@@ -303,7 +332,7 @@ class Runtime:
             return
         destination = action.destination
         packet = Packet(
-            destination, self.profile.jaus_id, payload, priority=action.priority,
+            destination, self.profile.jaus_id, payload, priority=self._priority(action),
             broadcast=Broadcast.GLOBAL if destination.is_broadcast else Broadcast.NONE,
         )
         try:
@@ -340,6 +369,17 @@ class Runtime:
         self._timer = self._loop.call_at(when, self._on_timer)
 
     # -- health and mirror ----------------------------------------------------------------------
+    def _priority(self, action: SendMessage) -> int:
+        """The header priority of ``action``: its traffic class on its link's profile."""
+        if not action.traffic_class:
+            return action.priority
+        destination = action.destination
+        link = self._link_of(destination) if not destination.is_broadcast else None
+        spec = self._spec(link) if link else None
+        if spec is None:  # a link without a link profile: as the sender asked
+            return action.priority
+        return priority_for(action.traffic_class, action.priority, spec.priorities)
+
     def link_status(self) -> list[dict[str, Any]]:
         """One ``LinkStatus`` sample per link."""
         queues = self.router.stats().links
@@ -349,11 +389,18 @@ class Runtime:
             stats = link.stats()
             queue = queues.get(name)
             drops = Counter(dict(stats.drops))
+            spec = self._spec(name)
             if queue is not None:
-                drops.update(queue.drops)
+                priorities = spec.priorities if spec else DEFAULT_PRIORITIES
+                for reason, count in queue.drops.items():  # name the classes, not numbers
+                    for level in range(4):
+                        reason = reason.replace(f"priority {level})",
+                                                f"{class_names(level, priorities)})")
+                    drops[reason] += count
             samples.append({
                 "link": name, "vehicle_id": "", "up": stats.state == "open",
-                "budget_bps": float(link.bandwidth_bps or 0.0),
+                "budget_bps": (spec.budget_bps if spec is not None and spec.limited
+                               else float(link.bandwidth_bps or 0.0)),
                 "measured_bps": 0.0,
                 "queue_depth": (queue.depth if queue else 0) + stats.queue_depth,
                 "drops": [{"traffic_class": k, "count": v} for k, v in sorted(drops.items())],

@@ -777,6 +777,14 @@ class Engine:
         previous = arb.holder
         if action == "release":
             decision = arb.release(operator)
+        elif action == "request" and (refusal := self.profile.operators.refusal(
+                operator, int(sample.get("authority", 0)))):
+            # not in the profile's allowlist (edge_vis.security): counted, logged, reported
+            self.counters["control_requests_refused"] += 1
+            if arb.last_rejection != refusal:
+                log.warning("vehicle %s: control request %s", vehicle.vehicle_id, refusal)
+            arb.last_rejection = refusal
+            decision = None
         elif action == "request":
             decision = arb.request(operator, int(sample.get("authority", 0)))
         else:
