@@ -182,7 +182,7 @@ class FleetView:
     def render(self, now: float, width: int = 80, selected: str | None = None) -> list[str]:
         """Lines of text for a terminal ``width`` columns wide (at least 80)."""
         width = max(width, 80)
-        head = (f" {'VEHICLE':<15}{'TYPE':<8}{'STATE':<10}{'POSITION':<21}{'M/S':>5} "
+        head = (f" {'VEHICLE':<15}{'TYPE':<8}{'STATE':<10}{'POSITION':<20}{'M/S':>5} "
                 f"{'CONTROL':<14}{'HZ':>5}")
         lines = [head[:width]]
         for row in self.ordered():
@@ -196,7 +196,7 @@ class FleetView:
             control = {"CONTROLLED": row.controller or "relay", "NOT_CONTROLLED": "-"}.get(
                 row.control, row.control.lower())
             line = (f"{mark}{row.vehicle_id[:14]:<15}{row.vehicle_type[:7]:<8}{state[:9]:<10}"
-                    f"{pos:<21}{speed} {control[:13]:<14}{row.rate(now):5.1f}")
+                    f"{pos:<20}{speed} {control[:13]:<14}{row.rate(now):5.1f}")
             lines.append(line[:width])
             extra = []
             if row.jaus_address:
