@@ -222,8 +222,8 @@ class RelayProfile:
     source: str = ""
     report_minimums: Mapping[str, float] = field(default_factory=dict)
     report_priorities: Mapping[str, int] = field(default_factory=dict)
-    #: who may request control; a profile built in code is open, a TOML profile that
-    #: lists no ``[[operators]]`` is closed unless ``access.any_operator = true``
+    #: who may request control (:mod:`edge_vis.security`); a profile file that lists no
+    #: ``[[operators]]`` refuses everyone unless ``access.any_operator = true``
     operators: OperatorPolicy = field(default_factory=OperatorPolicy.open)
     limits: LimitsProfile = field(default_factory=LimitsProfile)
 
@@ -524,10 +524,13 @@ def _vehicle(data: Mapping[str, Any], file: str, path: str, problems: _Problems,
 
 
 def from_mapping(data: Mapping[str, Any], *, file: str = "",
-                 base_dir: Path | None = None) -> RelayProfile:
+                 base_dir: Path | None = None,
+                 any_operator_default: bool = True) -> RelayProfile:
     """Validate a parsed deployment profile; raise ConfigError listing every problem.
 
     ``base_dir`` resolves relative ``file =`` vehicle references and JSIDL paths.
+    ``any_operator_default``: ``access.any_operator`` when the mapping does not say;
+    :func:`load_profile` (deployment files) passes False, so they fail closed.
     """
     problems = _Problems()
     root = _Reader(data, file, "", problems)
@@ -611,7 +614,7 @@ def from_mapping(data: Mapping[str, Any], *, file: str = "",
     m.finish()
 
     report_rates, report_minimums, report_priorities = _report_table(root.table("report_rates"))
-    operators = _operators(root)
+    operators = _operators(root, any_operator_default)
     limits = _limits(root)
 
     vehicles: list[VehicleProfile] = []
@@ -665,11 +668,12 @@ def from_mapping(data: Mapping[str, Any], *, file: str = "",
                         file, report_minimums, report_priorities, operators, limits)
 
 
-def _operators(root: _Reader) -> OperatorPolicy:
-    """``[[operators]] {id, max_authority}`` and ``[access] any_operator`` (default false)."""
-    access = root.table("access")
-    any_operator = access.get("any_operator", bool, False)
-    access.finish()
+def _operators(root: _Reader, any_operator_default: bool) -> OperatorPolicy:
+    """``[[operators]] {id, max_authority}`` and ``[access] any_operator``.
+
+    ``any_operator`` defaults to ``any_operator_default`` only when no operator is
+    listed: a list is an allowlist unless the profile opens it explicitly.
+    """
     allowed: dict[str, int] = {}
     for i, item in enumerate(root.get("operators", list, [])):
         key = f"operators[{i}]"
@@ -686,6 +690,10 @@ def _operators(root: _Reader) -> OperatorPolicy:
             sub.problem("id", f"duplicate operator id {operator_id!r}")
         else:
             allowed[operator_id] = max_authority
+    access = root.table("access")
+    listed = bool(root.data.get("operators"))
+    any_operator = access.get("any_operator", bool, any_operator_default and not listed)
+    access.finish()
     return OperatorPolicy(MappingProxyType(allowed), any_operator)
 
 
@@ -716,7 +724,7 @@ def load_profile(path: str | Path) -> RelayProfile:
         raise ConfigError([(str(path), "", f"cannot read: {exc.strerror or exc}")]) from exc
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError([(str(path), "", f"invalid TOML: {exc}")]) from exc
-    return from_mapping(data, file=str(path), base_dir=path.parent)
+    return from_mapping(data, file=str(path), base_dir=path.parent, any_operator_default=False)
 
 
 def default_profile_path() -> Path:

@@ -8,7 +8,8 @@ got no answer). The shell calls :meth:`Router.on_timer` at :meth:`Router.next_de
 Theory of operation
 -------------------
 *Address book.* Every packet received teaches the router that its source component lives
-behind ``(link, peer)``. Learned entries expire after ``peer_timeout`` s of silence.
+behind ``(link, peer)``; a component not heard from yet is looked for where another
+component of its subsystem was heard. Learned entries expire after ``peer_timeout`` s of silence.
 Static entries (profile seeds, wildcards allowed, e.g. ``5.*.*`` → radio) answer when no
 learned entry exists; the most specific pattern wins.
 
@@ -113,6 +114,8 @@ class RouterConfig:
     sweep_interval: float = 1.0
     reassembly_timeout: float = 5.0
     max_duplicates: int = 65536
+    #: learned addresses kept; past it the earliest learned is forgotten (counted)
+    max_routes: int = 4096
 
 
 @dataclass(slots=True)
@@ -269,6 +272,11 @@ class Router:
         for pattern, static in self._static:
             if pattern.matches(address):
                 return static
+        # a subsystem is one vehicle behind one link: another of its components we heard
+        # from says where this one lives (no broadcast with ACK over a slow radio)
+        for known, learned in self._learned.items():
+            if known.subsystem == address.subsystem and not address.is_broadcast:
+                return learned
         return None
 
     def routes(self) -> list[tuple[JausAddress, Route]]:
@@ -317,8 +325,13 @@ class Router:
             if len(seen) < self.config.max_duplicates:
                 seen[key] = now + window
                 self._seen_order.append((now + window, key))
+            else:
+                counters["duplicate table full"] += 1
             if not source.is_broadcast:
                 if route is None or route.link != link or route.peer != peer:
+                    if route is None and len(learned) >= self.config.max_routes:
+                        del learned[next(iter(learned))]  # re-learned on its next packet
+                        counters["routes forgotten: table full"] += 1
                     learned[source] = Route(link, peer, seen=now)
                 else:
                     route.seen = now
@@ -622,7 +635,7 @@ class Router:
         batch_peer: Peer | None = None
         queues = state.queues
         while state.queued_bytes:
-            if rate is not None and state.tokens <= 0:
+            if rate is not None and state.tokens < -1e-9:  # due at 0: see next_deadline
                 break
             level = next(i for i in (3, 2, 1, 0) if queues[i])
             peer, packet, cost = queues[level].popleft()

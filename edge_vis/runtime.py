@@ -37,7 +37,7 @@ from edge_vis.errors import CodecError, EdgeVisError, EncodeError
 from edge_vis.jaus.transport import Broadcast, Packet
 from edge_vis.link import Link, LinkUrl, Peer
 from edge_vis.mirror import Mirror
-from edge_vis.router import Deliver, DeliveryFailed, Router, SendPackets
+from edge_vis.router import Deliver, DeliveryFailed, Router, RouterConfig, SendPackets
 
 log = logging.getLogger(__name__)
 
@@ -85,7 +85,9 @@ class Runtime:
     ) -> None:
         self.profile = profile
         self.catalogue = catalogue or _catalogue_for(profile)
-        self.router = Router([profile.jaus_id])
+        limits = profile.limits
+        self.router = Router([profile.jaus_id], config=RouterConfig(
+            max_routes=limits.max_routes, max_duplicates=limits.max_duplicates))
         self.engine: Engine | None = None
         self.links: dict[str, Link] = {}
         self.counters: Counter[str] = Counter()
@@ -128,6 +130,9 @@ class Runtime:
             self.profile.jaus_id, self.profile.name, ", ".join(self.links) or "none",
             ", ".join(t.name for t in self.engine.manager.translators) or "none",
         )
+        if self.profile.operators.closed:
+            log.warning("no [[operators]] in the profile and access.any_operator is false: "
+                        "every control request will be refused")
         self._pump_engine(loop.time())
         self._status_task = loop.create_task(self._publish_link_status())
 

@@ -16,9 +16,11 @@ highest authority it may ask with::
     [access]
     any_operator = false      # the default; true lets anyone request (loopback demos)
 
-A profile that lists nobody and does not say ``any_operator = true`` refuses every
-control request: an omission fails closed. A refused request is counted, logged and kept
-as the vehicle's ``last_rejection`` (published in ``ControlStatus``).
+A profile file (``edge-vis run --profile``) that lists nobody and does not say
+``any_operator = true`` refuses every control request: an omission fails closed. (A
+profile built in code, e.g. by tests, is open unless it says otherwise.) A refused
+request is counted, logged and kept as the vehicle's ``last_rejection`` (published in
+``ControlStatus``).
 """
 
 from __future__ import annotations

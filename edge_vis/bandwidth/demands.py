@@ -72,9 +72,11 @@ def report_demand(vehicle_id: str, spec: ReportSpec, relay: RelayProfile,
         spec.on_change)
 
 
-def liveness_load(vehicle_id: str, relay: RelayProfile, link: LinkSpec) -> FixedLoad:
-    """QueryHeartbeatPulse/ReportHeartbeatPulse every liveness period, status now and then."""
-    period = relay.discovery.liveness_period
+def liveness_load(vehicle_id: str, relay: RelayProfile, link: LinkSpec,
+                  components: int = 1) -> FixedLoad:
+    """QueryHeartbeatPulse/ReportHeartbeatPulse every liveness period to each of the
+    vehicle's ``components`` with Liveness, status now and then."""
+    period = relay.discovery.liveness_period / max(components, 1)
     query = packet_bytes(2, link.overhead, link.mtu)
     pulse = packet_bytes(2, link.overhead, link.mtu)
     status = packet_bytes(2 + 1 + 4, link.overhead, link.mtu)
@@ -91,6 +93,7 @@ class VehicleWants:
     link: str
     profile: VehicleProfile | None
     reports: tuple[tuple[ReportSpec, bool], ...]  # (spec, polled)
+    liveness_components: int = 1
 
 
 def plan_fleet(relay: RelayProfile, links: Mapping[str, LinkSpec],
@@ -102,7 +105,8 @@ def plan_fleet(relay: RelayProfile, links: Mapping[str, LinkSpec],
         spec = links.get(v.link)
         if spec is None:
             continue
-        fixed[v.link].append(liveness_load(v.vehicle_id, relay, spec))
+        fixed[v.link].append(liveness_load(v.vehicle_id, relay, spec,
+                                           v.liveness_components))
         for report, polled in v.reports:
             per_link[v.link].append(report_demand(v.vehicle_id, report, relay, v.profile, spec,
                                                   sizes, polled=polled))

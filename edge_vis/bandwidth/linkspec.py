@@ -10,7 +10,8 @@ table) describes the medium, not the transport plugin::
     half_duplex = true       # both directions share the air time
     bits_per_byte = 10       # 10 on an asynchronous serial line (8N1), 8 otherwise
     duty_cycle = 1.0         # share of time the radio may transmit (regulatory limits)
-    budget = 0.8             # share of the usable rate edge-vis plans to use
+    budget = 0.8             # share of the usable rate edge-vis may use
+    reserve = 0.1            # share of that budget kept for commands and control
 
     [priorities]             # JAUS header priority (0..3) per traffic class
     control = 3
@@ -41,7 +42,7 @@ DEFAULT_PRIORITIES: Mapping[str, int] = {
 
 #: keys of a link profile (inline or file)
 SPEC_KEYS = frozenset({"bit_rate", "overhead", "mtu", "latency", "half_duplex", "duty_cycle",
-                       "budget", "priorities", "description", "bits_per_byte"})
+                       "budget", "priorities", "description", "bits_per_byte", "reserve"})
 
 Problem = tuple[str, str, str]
 
@@ -57,6 +58,7 @@ class LinkSpec:
     half_duplex: bool = True
     duty_cycle: float = 1.0
     budget: float = 0.8
+    reserve: float = 0.1
     bits_per_byte: int = 8
     priorities: Mapping[str, int] = field(default_factory=lambda: dict(DEFAULT_PRIORITIES))
     description: str = ""
@@ -76,6 +78,12 @@ class LinkSpec:
     def budget_bytes(self) -> float:
         """Bytes per second edge-vis plans to use."""
         return self.capacity_bytes * self.budget
+
+    @property
+    def planned_bytes(self) -> float:
+        """Bytes per second the rate planner may fill (the budget less the reserve that
+        operators' commands and access control need)."""
+        return self.budget_bytes * (1.0 - self.reserve)
 
     @property
     def budget_bps(self) -> float:
@@ -136,6 +144,7 @@ def read_link_spec(data: Mapping[str, Any], *, file: str, path: str,
     real("latency", 0.0, 60.0)
     real("duty_cycle", 0.0, 1.0, open_low=True)
     real("budget", 0.0, 1.0, open_low=True)
+    real("reserve", 0.0, 0.9)
     for key, low, high in (("overhead", 0, 4096), ("mtu", 32, 4079), ("bits_per_byte", 8, 12)):
         if key in data:
             value = data[key]

@@ -103,8 +103,8 @@ class LinkPlan:
 
     @property
     def budget(self) -> float:
-        """The budget in bytes per second."""
-        return self.spec.budget_bytes
+        """Bytes per second the plan may fill (budget less the command reserve)."""
+        return self.spec.planned_bytes
 
     @property
     def fits(self) -> bool:
@@ -146,7 +146,7 @@ def plan_link(name: str, spec: LinkSpec, demands: Sequence[ReportDemand],
     if not spec.limited:
         reasons = ["link rate unknown: not planned"] * len(demands)
         return _finish(name, spec, demands, rates, reasons, fixed, desired_load, warnings)
-    budget = spec.budget_bytes
+    budget = spec.planned_bytes
     fixed_load = _total([], [], fixed, half)
     if fixed_load > budget:
         warnings.append(f"link {name}: liveness alone needs {fixed_load:.0f} B/s, more than "
@@ -192,7 +192,8 @@ def plan_link(name: str, spec: LinkSpec, demands: Sequence[ReportDemand],
         warnings.append(
             f"link {name}: even the minimum rates need "
             f"{_total(demands, rates, fixed, half):.0f} B/s, more than the budget of "
-            f"{budget:.0f} B/s ({spec.bit_rate:.0f} bit/s x {spec.budget:.0%}); dropping "
+            f"{budget:.0f} B/s ({spec.bit_rate:.0f} bit/s x {spec.budget:.0%} less the "
+            f"{spec.reserve:.0%} command reserve); dropping "
             "reports by priority")
         order = sorted((i for i, d in enumerate(demands) if not d.on_change),
                        key=lambda i: (demands[i].priority,
@@ -228,7 +229,8 @@ def format_plan(plan: LinkPlan) -> str:
         lines.append(
             f"link {plan.link}: {spec.bit_rate:.0f} bit/s "
             f"{'half' if spec.half_duplex else 'full'} duplex, budget {spec.budget:.0%} = "
-            f"{plan.budget:.0f} B/s; planned {plan.load:.0f} B/s "
+            f"{spec.budget_bytes:.0f} B/s of {spec.capacity_bytes:.0f}, {spec.reserve:.0%} "
+            f"kept for commands: {plan.budget:.0f} B/s to plan; planned {plan.load:.0f} B/s "
             f"({plan.load / plan.budget:.0%} of budget), desired {plan.desired_load:.0f} B/s; "
             f"MTU {spec.mtu} B = {mtu_time * 1000:.0f} ms on air")
     else:

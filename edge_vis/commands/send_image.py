@@ -54,7 +54,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="ATR target position, degrees and metres")
     parser.add_argument("--lanes", type=int, default=1, metavar="N",
                         help="parallel UDT connections per file (1-16, default 1); on a lossy "
-                             "radio 4 lanes carry several times what one does")
+                             "radio 4-6 lanes carry several times what one does")
     parser.add_argument("--give-up", type=float, default=120.0, metavar="SECONDS",
                         help="stop retrying after this long without progress (default 120)")
 

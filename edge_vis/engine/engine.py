@@ -364,7 +364,22 @@ class Engine:
                 for sub in vehicle.subscriptions.values()
                 if sub.report in specs and sub.state is not SubscriptionState.CANCELLING
             )
-            wants.append(VehicleWants(vehicle.vehicle_id, link, vp, reports))
+            live = sum(1 for address in vehicle.components
+                       if vehicle.offers(address, LIVENESS) or vehicle.offers(address, MANAGEMENT))
+            wants.append(VehicleWants(vehicle.vehicle_id, link, vp, reports, max(live, 1)))
+        # vehicles the profile puts on a planned link but not heard yet get a share now
+        # (the reports their link-mates deliver), so the first one to answer is not given
+        # the whole link and then slowed down behind its own backlog
+        for vp in self.profile.vehicles:
+            if vp.subsystem in self.vehicles or not vp.link:
+                continue
+            link = planner.link_for(vp.link, None)
+            mates = [w for w in wants if w.link == link]
+            expected = {spec.report: spec for w in mates for spec, _polled in w.reports}
+            if link and expected:
+                wants.append(VehicleWants(vp.vehicle_id, link, vp,
+                                          tuple((spec, False) for spec in expected.values()),
+                                          max(w.liveness_components for w in mates)))
         planner.plan(wants)
         for vehicle in self.vehicles.values():
             link = links.get(vehicle.vehicle_id)
@@ -428,6 +443,9 @@ class Engine:
             log.warning("vehicle %s declared in the relay's own subsystem: ignored", vehicle_id)
             return None
         vehicle = self.vehicles.get(subsystem)
+        if vehicle is None and len(self.vehicles) >= self.profile.limits.max_vehicles:
+            self.counters["vehicles_refused_table_full"] += 1
+            return None
         if vehicle is None:
             vehicle = self._add_vehicle(subsystem, vehicle_id, now)
         before = (vehicle.name, vehicle.vehicle_type, vehicle.address, dict(vehicle.components))
@@ -468,6 +486,9 @@ class Engine:
             return None
         ident = str(fields.get("identification", "") or "")
         vehicle = self.vehicles.get(source.subsystem)
+        if vehicle is None and len(self.vehicles) >= self.profile.limits.max_vehicles:
+            self.counters["vehicles_refused_table_full"] += 1
+            return None
         if vehicle is None:
             vehicle = self._add_vehicle(source.subsystem,
                                         derive_vehicle_id(ident, source.subsystem), now)
@@ -497,6 +518,13 @@ class Engine:
         if source.subsystem == self.profile.jaus_id.subsystem or self._shutting_down:
             return
         due = self._probed.get(source.subsystem, 0.0)
+        if now >= due and source.subsystem not in self._probed and (
+                len(self._probed) >= self.profile.limits.max_unidentified):
+            # bounded: forget expired probes first, else ignore this stranger (counted)
+            self._probed = {k: v for k, v in self._probed.items() if v > now}
+            if len(self._probed) >= self.profile.limits.max_unidentified:
+                self.counters["probes_skipped_table_full"] += 1
+                return
         if now >= due:
             self._probed[source.subsystem] = now + self.profile.discovery.response_timeout
             self._send(source, "QueryIdentification", {"query_type": 2})

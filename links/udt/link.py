@@ -288,6 +288,7 @@ class BulkSender:
                               offsets + final.resumed_from)
 
     def _send_one(self, path: Path, manifest: Manifest) -> TransferResult:
+        self.backoff.reset()
         attempts = 0
         offsets: list[int] = []
         last_progress = time.monotonic()

@@ -19,7 +19,7 @@ from __future__ import annotations
 import asyncio
 import os
 import tty
-from collections import deque
+from collections import Counter, deque
 from dataclasses import dataclass, field
 
 from edge_vis.jaus import serial as jserial
@@ -50,6 +50,8 @@ class HubStats:
     poses: list[tuple[int, float, float]] = field(default_factory=list)
     #: (message code, payload, time delivered to the vehicles, time the relay wrote it)
     commands: list[tuple[int, bytes, float, float]] = field(default_factory=list)
+    #: bytes on the air by (direction, message code, inner report code of an Event)
+    by_code: Counter[tuple[str, int, int]] = field(default_factory=Counter)
 
 
 class RadioHub:
@@ -135,12 +137,16 @@ class RadioHub:
             now = loop.time()
             budget = min(budget + (now - last) * self.rate, self.rate * 0.05 + 300)
             last = now
-            while self.queue and budget >= len(self.queue[0].raw):
+            while self.queue and budget > 0:
                 frame = self.queue.popleft()
                 size = len(frame.raw)
                 budget -= size
                 self.backlog -= size
                 self.stats.carried += size
+                code = frame.packet.message_code or 0
+                inner = (int.from_bytes(frame.packet.payload[8:10], "little")
+                         if code == EVENT and len(frame.packet.payload) >= 10 else 0)
+                self.stats.by_code["up" if frame.to_relay else "down", code, inner] += size
                 done = now  # the frame has been on the air for its size / rate
                 if frame.to_relay:
                     self.stats.uplink += size

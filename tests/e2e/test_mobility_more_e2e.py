@@ -19,6 +19,7 @@ pytestmark = pytest.mark.dds
 
 MOB = "urn:jaus:jss:mobility:"
 MANIP = "urn:jaus:jss:manipulator:"
+OPEN = {"access": {"any_operator": True}}  # any operator may take control
 
 
 def test_vector_driver_state_out_and_set_points_in(domain_id: int, partition: str) -> None:
@@ -61,7 +62,8 @@ def test_vector_driver_state_out_and_set_points_in(domain_id: int, partition: st
         assert fields["longitude"] == pytest.approx(-20.25, abs=1e-6)
 
     asyncio.run(relay_with(peer, 61, domain_id, partition, body,
-                           extra={"translators": {"mobility": {"extra_reports": ["*"]}}}))
+                           extra={**OPEN,
+                                  "translators": {"mobility": {"extra_reports": ["*"]}}}))
 
 
 def test_manipulator_execute_list_reaches_the_arm_as_its_own_message(
@@ -79,4 +81,4 @@ def test_manipulator_execute_list_reaches_the_arm_as_its_own_message(
         assert fields == {"element_uid": 4}
         assert runtime.counters["encode errors"] == 0
 
-    asyncio.run(relay_with(peer, 63, domain_id, partition, body))
+    asyncio.run(relay_with(peer, 63, domain_id, partition, body, extra=OPEN))

@@ -14,7 +14,7 @@ import pytest
 
 pytest.importorskip("udt4py")
 
-from conftest import sha, wait_for
+from udt_helpers import sha, wait_for
 
 from edge_vis.commands.send_image import Progress, parse_rate
 from links.udt import UdtLink

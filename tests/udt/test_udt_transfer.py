@@ -16,8 +16,8 @@ import pytest
 
 pytest.importorskip("udt4py")
 
-from conftest import RawClient, free_udp_port, sha, wait_for
 from lossy_proxy import LossyProxy
+from udt_helpers import RawClient, free_udp_port, sha, wait_for
 
 from links.udt import UdtLink
 from links.udt.protocol import (
@@ -32,6 +32,12 @@ from links.udt.protocol import (
 pytestmark = pytest.mark.udt
 
 FAST = UdtLink.Backoff(initial=0.02, maximum=0.2, jitter=0.0)
+
+
+def spool_entries(spool: UdtLink.Spool) -> list:
+    """A consistent copy of the spool's entries while its threads change them."""
+    with spool._lock:
+        return list(spool._entries.values())
 
 
 def manifest(content: bytes, name: str = "img.png", **over: object) -> Manifest:
@@ -86,7 +92,7 @@ def test_transfer_interrupted_ten_times_completes(tmp_path: Path, make_file):
             nonlocal drops
             last = 0
             while drops < 10 and not done.is_set():
-                entries = [e for e in ops.spool._entries.values() if e.claims]
+                entries = [e for e in spool_entries(ops.spool) if e.claims]
                 if entries and entries[0].written[0] - last >= 300_000:
                     last = entries[0].written[0]
                     drops += ops.receiver.drop_connections() > 0
@@ -205,8 +211,7 @@ def test_lanes_over_a_lossy_link_survive_a_drop_and_verify(tmp_path: Path, make_
         sender = threading.Thread(target=lambda: results.append(UdtLink.send_image(
             path, proxy.address, vehicle_id="uuv1", lanes=4, backoff=FAST, give_up_after=20)))
         sender.start()
-        entries = ops.spool._entries.values
-        wait_for(lambda: [e for e in entries() if len(e.claims) == 4
+        wait_for(lambda: [e for e in spool_entries(ops.spool) if len(e.claims) == 4
                           and sum(e.written) > 300_000], 20, "four lanes under way")
         assert ops.receiver.drop_connections() == 4
         sender.join(40)
