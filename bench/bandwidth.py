@@ -206,8 +206,9 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=35.0)
     parser.add_argument("--only", choices=("planned", "fixed", "polled"), default=None)
+    parser.add_argument("--verbose", action="store_true")
     args = parser.parse_args()
-    logging.basicConfig(level=logging.ERROR)
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.ERROR)
     runs = [("planned", True, False), ("fixed", False, False), ("polled", True, True)]
     if args.only:
         runs = [r for r in runs if r[0] == args.only]

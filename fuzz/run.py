@@ -18,7 +18,8 @@ import atheris
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-with atheris.instrument_imports(include=["edge_vis"]):
+with atheris.instrument_imports(include=["edge_vis", "links"]):
+    import links.udt.protocol  # noqa: F401 - imported here so that it is instrumented
     from fuzz.targets import TARGETS
 
 

@@ -102,10 +102,24 @@ def profile_toml(data: bytes) -> None:
         from_mapping(mapping, file="fuzz.toml")
 
 
+def udt_stream(data: bytes) -> None:
+    """Bytes arriving on a UDT bulk connection at the receiver, in three pieces."""
+    from links.udt.protocol import ManifestReceived, ReceiverConnection
+
+    connection = ReceiverConnection()
+    third = max(1, len(data) // 3)
+    for i, start in enumerate(range(0, len(data), third)):
+        for event in connection.receive_data(data[start : start + third], now=float(i)):
+            if isinstance(event, ManifestReceived):
+                connection.accept(0)
+    connection.handle_timer(100.0)
+
+
 TARGETS: dict[str, Callable[[bytes], None]] = {
     "judp": judp_datagram,
     "message": message_body,
     "serial": serial_stream,
     "reassembly": reassembly,
     "profile": profile_toml,
+    "udt": udt_stream,
 }

@@ -79,9 +79,8 @@ def liveness_load(vehicle_id: str, relay: RelayProfile, link: LinkSpec,
     period = relay.discovery.liveness_period / max(components, 1)
     query = packet_bytes(2, link.overhead, link.mtu)
     pulse = packet_bytes(2, link.overhead, link.mtu)
-    status = packet_bytes(2 + 1 + 4, link.overhead, link.mtu)
-    out = (query + query / STATUS_EVERY) / period
-    inbound = (pulse + status / STATUS_EVERY) / period
+    out = query / period
+    inbound = pulse / period
     return FixedLoad("liveness", vehicle_id, inbound, out)
 
 

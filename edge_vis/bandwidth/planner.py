@@ -17,7 +17,8 @@ Rules, in order:
    ``warnings`` and the caller logs it loudly.
 
 Every-change events (``on_change``) cannot be paced by a rate: they are counted at their
-desired rate as an estimate and never degraded. On a half-duplex link both directions
+minimum rate (what the profile expects them to average; by default a tenth of the rate
+the translator names) and never degraded. On a half-duplex link both directions
 share the air time, so load is bytes in plus bytes out; on a full-duplex link it is the
 busier direction.
 """
@@ -139,7 +140,7 @@ def plan_link(name: str, spec: LinkSpec, demands: Sequence[ReportDemand],
     """Plan the rates of ``demands`` on link ``name`` (see the module docstring)."""
     demands = list(demands)
     half = spec.half_duplex
-    rates = [d.desired for d in demands]
+    rates = [d.minimum if d.on_change else d.desired for d in demands]
     desired_load = _total(demands, rates, fixed, half)
     reasons = ["desired rate fits the budget"] * len(demands)
     warnings: list[str] = []
@@ -157,7 +158,7 @@ def plan_link(name: str, spec: LinkSpec, demands: Sequence[ReportDemand],
     levels = sorted({d.priority for d in demands if not d.on_change})
     for i, d in enumerate(demands):
         if d.on_change:
-            reasons[i] = "every-change event: counted at its expected rate, not paced"
+            reasons[i] = "every-change event: counted at its minimum rate, not paced"
     placed = False
     for level in levels:
         members = [i for i, d in enumerate(demands) if d.priority == level and not d.on_change]

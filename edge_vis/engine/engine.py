@@ -365,13 +365,16 @@ class Engine:
                 if sub.report in specs and sub.state is not SubscriptionState.CANCELLING
             )
             live = sum(1 for address in vehicle.components
-                       if vehicle.offers(address, LIVENESS) or vehicle.offers(address, MANAGEMENT))
+                       if vehicle.offers(address, LIVENESS)
+                       or vehicle.offers(address, MANAGEMENT))
             wants.append(VehicleWants(vehicle.vehicle_id, link, vp, reports, max(live, 1)))
         # vehicles the profile puts on a planned link but not heard yet get a share now
         # (the reports their link-mates deliver), so the first one to answer is not given
         # the whole link and then slowed down behind its own backlog
         for vp in self.profile.vehicles:
-            if vp.subsystem in self.vehicles or not vp.link:
+            known = self.vehicles.get(vp.subsystem) if vp.subsystem is not None else None
+            if not vp.link or (known is not None and (
+                    known.times_lost or (known.online and known.subscriptions))):
                 continue
             link = planner.link_for(vp.link, None)
             mates = [w for w in wants if w.link == link]

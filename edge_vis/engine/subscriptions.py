@@ -131,6 +131,8 @@ class Subscription:
         self.requested_rate: float | None = None
         self._updating = False
         self.updates_sent = 0
+        #: cancelled while CreateEvent was in flight: cancel the event once confirmed
+        self._cancel_when_confirmed = False
 
     # -- queries -----------------------------------------------------------------------
 
@@ -159,6 +161,13 @@ class Subscription:
         self.request_id = None
         self._updating = False
         if self.state is SubscriptionState.CANCELLING:
+            if self._cancel_when_confirmed:  # the event we no longer want now exists
+                self._cancel_when_confirmed = False
+                self.event_id = event_id
+                self.request_id = self._next_request_id()
+                self.deadline = now + self.profile.response_timeout
+                return [Request("CancelEvent", {"request_id": self.request_id,
+                                                "event_id": event_id})]
             self._done()
             return []
         first = self.state is not SubscriptionState.ACTIVE
@@ -210,6 +219,13 @@ class Subscription:
             self.deadline = now + self.profile.response_timeout
             return [Request("CancelEvent", {"request_id": self.request_id,
                                             "event_id": self.event_id})]
+        if self.state is SubscriptionState.CREATING and self.request_id is not None:
+            # a confirm may still come: keep its request ID and cancel what it creates
+            self.state = SubscriptionState.CANCELLING
+            self._cancel_when_confirmed = True
+            self.stale_deadline = None
+            self.deadline = now + self.profile.response_timeout
+            return []
         self._done()
         return []
 

@@ -101,5 +101,5 @@ def test_rates_are_what_createevent_can_carry_and_never_above_the_plan() -> None
 def test_every_change_events_are_counted_not_paced() -> None:
     change = ReportDemand("a", "ReportActiveElement", 1.0, 0.1, 5, 44, on_change=True)
     plan = plan_link("radio", RADIO_9600, [pose("a", desired=20.0), change])
-    assert plan.rate("a", "ReportActiveElement") == 1.0
-    assert plan.rate("a", "ReportGlobalPose") == pytest.approx((768 - 44) / 72, abs=0.03)
+    assert plan.rate("a", "ReportActiveElement") == 0.1  # counted at its minimum
+    assert plan.rate("a", "ReportGlobalPose") == pytest.approx((768 - 4.4) / 72, abs=0.03)
