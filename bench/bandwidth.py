@@ -14,7 +14,9 @@ every 0.5 s. Runs:
 DDS is replaced by an in-process capturing publisher (the samples the DDS bridge would
 write, with the time they were handed to it). One run, prints a table::
 
-    .venv/bin/python bench/bandwidth.py [--seconds 35]
+    .venv/bin/python bench/bandwidth.py [--seconds 35] [--only planned] [--verbose]
+
+``--verbose`` also prints each run's plan, backlog over time and air time by message.
 """
 
 from __future__ import annotations
@@ -91,6 +93,21 @@ def sim_profile(reject_events: bool) -> Any:
     return parse_profile({"seed": 7, "vehicles": vehicles})
 
 
+def show_details(name: str, runtime: Runtime, hub: RadioHub, elapsed: float) -> None:
+    """The plan, the backlog over time and the air time by message (to stderr)."""
+    from edge_vis.bandwidth.planner import format_plan
+
+    if runtime.planner is not None:
+        print(format_plan(runtime.planner.plans["radio"]), file=sys.stderr)
+    print(f"{name}: backlog every second:",
+          [b for _t, b in hub.stats.backlog_samples][::4], file=sys.stderr)
+    cat = default_catalogue()
+    for (way, code, inner), n in hub.stats.by_code.most_common(16):
+        label = cat.get(code).name if cat.get(code) else hex(code)
+        wrapped = (cat.get(inner).name if cat.get(inner) else hex(inner)) if inner else ""
+        print(f"   {way:<4} {label:<26} {wrapped:<22} {n / elapsed:7.0f} B/s", file=sys.stderr)
+
+
 def percentile(values: list[float], q: float) -> float:
     if not values:
         return float("nan")
@@ -98,7 +115,8 @@ def percentile(values: list[float], q: float) -> float:
     return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
 
 
-async def one_run(name: str, planned: bool, polled: bool, seconds: float) -> dict[str, Any]:
+async def one_run(name: str, planned: bool, polled: bool, seconds: float,
+                  verbose: bool = False) -> dict[str, Any]:
     loop = asyncio.get_running_loop()
     hub = RadioHub(BAUD, command_codes=frozenset({SET_WRENCH}))
     sim = Simulation(sim_profile(polled), default_catalogue())
@@ -136,17 +154,8 @@ async def one_run(name: str, planned: bool, polled: bool, seconds: float) -> dic
             sent[marker] = now
         end = loop.time()
         carried_at_end = hub.stats.carried
-        if planned and not polled and runtime.planner is not None:
-            from edge_vis.bandwidth.planner import format_plan
-            print(format_plan(runtime.planner.plans["radio"]), file=sys.stderr)
-        print(name, [b for _t, b in hub.stats.backlog_samples][::4], file=sys.stderr)
-        cat = default_catalogue()
-        for (d, code, inner), n in hub.stats.by_code.most_common(14):
-            nm = cat.get(code).name if cat.get(code) else hex(code)
-            im = (cat.get(inner).name if cat.get(inner) else hex(inner)) if inner else ""
-            print(f"   {d:<4} {nm:<28} {im:<22} {n / (loop.time() - start):7.0f} B/s",
-                  file=sys.stderr)
-        print(name, runtime.engine.counters if runtime.engine else None, file=sys.stderr)
+        if verbose:
+            show_details(name, runtime, hub, loop.time() - start)
     finally:
         end = loop.time()
         carried_at_end = hub.stats.carried
@@ -182,10 +191,15 @@ async def one_run(name: str, planned: bool, polled: bool, seconds: float) -> dic
             latencies.append(done - at)
     wanted = len(sent) * VEHICLES
     planned_period = None
+    per_report = None
     if runtime.planner is not None and runtime.planner.plans:
         plan = runtime.planner.plans["radio"]
-        rates = [p.rate for p in plan.reports if p.demand.report == "ReportGlobalPose"]
+        poses_planned = [p for p in plan.reports if p.demand.report == "ReportGlobalPose"]
+        rates = [p.rate for p in poses_planned]
         planned_period = 1.0 / min(rates) if rates and min(rates) > 0 else None
+        if poses_planned:
+            d = poses_planned[0].demand
+            per_report = d.report_bytes + (d.query_bytes if d.polled else 0)
     growth = 0.0
     samples = [(t, b) for t, b in stats.backlog_samples if t >= measure_from]
     if len(samples) >= 2:
@@ -198,7 +212,7 @@ async def one_run(name: str, planned: bool, polled: bool, seconds: float) -> dic
         "cmd_p99": percentile(latencies, 0.99), "backlog_max": stats.max_backlog,
         "growth": growth,
         "bytes_per_report": (carried_at_end - carried_at_start) / max(reports, 1),
-        "reports": reports / window,
+        "reports": reports / window, "per_report": per_report,
     }
 
 
@@ -212,14 +226,14 @@ def main() -> int:
     runs = [("planned", True, False), ("fixed", False, False), ("polled", True, True)]
     if args.only:
         runs = [r for r in runs if r[0] == args.only]
-    results = [asyncio.run(one_run(n, p, q, args.seconds)) for n, p, q in runs]
+    results = [asyncio.run(one_run(n, p, q, args.seconds, args.verbose)) for n, p, q in runs]
     mtu_time = (256 + 14 + 18) / (BAUD / 10)
     print(f"emulated half-duplex serial radio {BAUD} bit/s ({BAUD // 10} B/s), {VEHICLES} "
           f"UGVs, pose + velocity wanted at 10 Hz, budget 80 %, {args.seconds:.0f} s per run "
           "(first 12 s warm-up)")
     head = (f"{'run':<8} {'load':>6} {'pose/s':>7} {'age p50':>8} {'age p95':>8} "
             f"{'2x plan':>8} {'cmds':>9} {'cmd p99':>8} {'backlog':>8} {'growth':>8} "
-            f"{'B/report':>9}")
+            f"{'B/report':>9} {'B/pose':>7}")
     print(head)
     print("-" * len(head))
     for r in results:
@@ -227,9 +241,13 @@ def main() -> int:
         print(f"{r['run']:<8} {r['load']:6.0%} {r['poses']:7.1f} {r['age_p50']:7.2f}s "
               f"{r['age_p95']:7.2f}s {limit:>8} {r['cmd_delivered']:>4}/{r['cmd_sent']:<4} "
               f"{r['cmd_p99']:7.3f}s {r['backlog_max']:>7}B {r['growth']:6.0f}B/s "
-              f"{r['bytes_per_report']:9.0f}")
+              f"{r['bytes_per_report']:9.0f} {r['per_report'] or '-':>7}")
     print(f"limits: load <= 80% +- 5%; pose age p95 <= 2x planned period; command p99 <= "
           f"one MTU on air ({mtu_time:.3f} s) + 0.100 s = {mtu_time + 0.1:.3f} s")
+    print("load: air time used / capacity after warm-up; age: vehicle sent -> sample handed "
+          "to DDS; backlog: most bytes waiting for air time; growth: its trend after warm-up;"
+          "\nB/report: all bytes on the air per report delivered to DDS (liveness, control "
+          "and commands included); B/pose: one pose on the air (Event, or query + report)")
     return 0
 
 

@@ -181,6 +181,7 @@ class LimitsProfile:
     max_routes: int = 4096
     max_duplicates: int = 65536
     max_unidentified: int = 1024
+    max_products: int = 256
 
 
 @dataclass(frozen=True, slots=True)
@@ -709,6 +710,7 @@ def _limits(root: _Reader) -> LimitsProfile:
         t.get("max_routes", int, base.max_routes, at_least_one),
         t.get("max_duplicates", int, base.max_duplicates, at_least_one),
         t.get("max_unidentified", int, base.max_unidentified, at_least_one),
+        t.get("max_products", int, base.max_products, at_least_one),
     )
     t.finish()
     return limits

@@ -179,7 +179,8 @@ class Runtime:
         registry = TopicRegistry.standard()
         for translator in self.engine.manager.translators:
             registry.register_all(translator.topic_types, owner=translator.name)
-        bridge = DdsBridge(self.profile.dds.domain, self.profile.dds.partitions, registry)
+        bridge = DdsBridge(self.profile.dds.domain, self.profile.dds.partitions, registry,
+                           max_products=self.profile.limits.max_products)
         published, subscribed = self.engine.manager.topics()
         bridge.open_writers([*published, "LinkStatus"])
         subscribed = [t for t in dict.fromkeys(subscribed)]
@@ -203,6 +204,15 @@ class Runtime:
         not_applied = self.engine.apply_profile(profile, now)
         self._pump_engine(now)
         return not_applied
+
+    def set_link_rate(self, link: str, bit_rate: float) -> None:
+        """A new measured rate of ``link`` (a radio that changed modulation, say): plan the
+        report rates again and update the vehicles' events."""
+        if self.engine is None or self._loop is None:
+            return
+        now = self._loop.time()
+        self.engine.set_link_rate(link, bit_rate, now)
+        self._pump_engine(now)
 
     def request_stop(self) -> None:
         """Ask the relay to stop (signal handlers call this)."""

@@ -252,3 +252,77 @@ def test_link_drop_reasons_are_a_small_vocabulary() -> None:
         except Exception as exc:  # the reason is what is under test
             link._malformed(None, str(exc), data)
     assert len(link.stats().drops) < 64, len(link.stats().drops)
+
+
+# -- DDS bridge: samples handed to the event loop ----------------------------------------------
+
+
+@pytest.mark.dds
+def test_dds_bridge_hands_over_a_bounded_number_of_batches(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A relay whose loop is stuck must not pile up every incoming sample in the loop's
+    queue: the delivery thread stops at MAX_IN_FLIGHT batches and counts the wait."""
+    import time
+    import uuid
+
+    dds = pytest.importorskip("edge_vis.dds")
+    from edge_vis.dds import bridge as bridge_module
+
+    monkeypatch.setenv("CYCLONEDDS_URI", dds.loopback_config())
+    domain, partition = 170 + int(time.time()) % 10, f"limits-{uuid.uuid4().hex[:8]}"
+    loop = asyncio.new_event_loop()  # never run until the end: a stuck relay
+    delivered: list[str] = []
+    relay = dds.DdsBridge(domain, (partition,))
+    operator = dds.DdsBridge(domain, (partition,))
+    try:
+        relay.subscribe(["ControlRequest"], lambda topic, s: delivered.append(s["vehicle_id"]),
+                        loop=loop)
+        operator.open_writers(["ControlRequest"])
+        time.sleep(0.5)  # discovery
+        for i in range(3000):
+            operator.publish("ControlRequest", {"vehicle_id": f"v{i}", "operator_id": "op",
+                                                "authority": 1, "action": "request"})
+            if i % 20 == 0:
+                time.sleep(0.002)  # let the delivery thread take small batches
+        time.sleep(0.5)
+        queued = len(loop._ready)  # the loop's pending callbacks (no public size)
+        assert queued <= bridge_module.MAX_IN_FLIGHT
+        assert relay.counters["handover_waits"] > 0
+        # once the loop runs again, delivery resumes
+        loop.run_until_complete(asyncio.sleep(0.5))
+        assert delivered
+    finally:
+        relay.close()
+        operator.close()
+        loop.close()
+
+
+@pytest.mark.dds
+def test_dds_image_products_kept_for_late_joiners_are_bounded(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Image products are transient-local keep-all: without a bound every still image a
+    vehicle ever reported stays in the relay's memory. The newest are kept, the oldest
+    disposed, and a station joining late gets only the newest."""
+    import time
+    import uuid
+
+    dds = pytest.importorskip("edge_vis.dds")
+    monkeypatch.setenv("CYCLONEDDS_URI", dds.loopback_config())
+    domain, partition = 180 + int(time.time()) % 10, f"limits-{uuid.uuid4().hex[:8]}"
+    relay = dds.DdsBridge(domain, (partition,), max_products=5)
+    try:
+        relay.open_writers(["ImageProduct"])
+        for i in range(40):
+            relay.publish("ImageProduct", {"vehicle_id": "uuv1", "image_id": f"img-{i}",
+                                           "file_name": f"img-{i}.png", "size_bytes": 10,
+                                           "sha256": "0" * 64})
+        assert relay.counters["products_retired"] == 35
+        late = dds.DdsBridge(domain, (partition,))
+        try:
+            reader = late.reader("ImageProduct")
+            got = reader.collect(10, 2.0)
+            assert sorted(s["image_id"] for s in got) == [f"img-{i}" for i in range(35, 40)]
+        finally:
+            late.close()
+    finally:
+        relay.close()

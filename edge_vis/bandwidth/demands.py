@@ -29,6 +29,8 @@ log = logging.getLogger(__name__)
 UNKNOWN_PAYLOAD = 64
 #: engine.STATUS_EVERY: status is queried every this many liveness periods
 STATUS_EVERY = 5
+#: characters assumed for a vehicle's identification string
+NOMINAL_IDENTIFICATION = 16
 
 
 class SizeSource:
@@ -74,13 +76,21 @@ def report_demand(vehicle_id: str, spec: ReportSpec, relay: RelayProfile,
 
 def liveness_load(vehicle_id: str, relay: RelayProfile, link: LinkSpec,
                   components: int = 1) -> FixedLoad:
-    """QueryHeartbeatPulse/ReportHeartbeatPulse every liveness period to each of the
-    vehicle's ``components`` with Liveness, status now and then."""
-    period = relay.discovery.liveness_period / max(components, 1)
+    """What keeping a vehicle known costs: QueryHeartbeatPulse/ReportHeartbeatPulse every
+    liveness period to each of its ``components`` with Liveness, QueryStatus now and then,
+    and its share of discovery (QueryIdentification / ReportIdentification)."""
+    components = max(components, 1)
+    period = relay.discovery.liveness_period
     query = packet_bytes(2, link.overhead, link.mtu)
     pulse = packet_bytes(2, link.overhead, link.mtu)
-    out = query / period
-    inbound = pulse / period
+    status = packet_bytes(2 + 1 + 4, link.overhead, link.mtu)
+    # heartbeat per component every period, status every STATUS_EVERY periods
+    out = components * query * (1 + 1 / STATUS_EVERY) / period
+    inbound = components * (pulse + status / STATUS_EVERY) / period
+    # discovery: the broadcast QueryIdentification (shared) and this vehicle's answer
+    ident = packet_bytes(2 + 2 + 2 + 1 + NOMINAL_IDENTIFICATION, link.overhead, link.mtu)
+    inbound += ident / relay.discovery.period
+    out += query / relay.discovery.period
     return FixedLoad("liveness", vehicle_id, inbound, out)
 
 

@@ -56,6 +56,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="bulk budget in bit/s for forwarding (suffix k/M/G)")
     parser.add_argument("--forward-lanes", type=int, default=1, metavar="N",
                         help="parallel UDT connections per forwarded file (1-16, default 1)")
+    parser.add_argument("--keys", type=Path, metavar="FILE",
+                        help="pre-shared bulk keys (TOML [keys] vehicle = \"hex\"): only "
+                             "these vehicles may deliver, each proving it holds its key")
     parser.add_argument("--domain", type=int, metavar="N",
                         help="publish ImageProduct/ImageData/TransferStatus on DDS domain N")
     parser.add_argument("--partition", action="append", default=[], metavar="NAME",
@@ -84,6 +87,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"address: {exc}") from None
     if not 1 <= args.forward_lanes <= 16:
         raise ConfigError(f"--forward-lanes {args.forward_lanes}: must be 1..16")
+    keys = udt.load_keys(args.keys) if args.keys is not None else None
     bridge = _bridge(args.domain, args.partition) if args.domain is not None else None
     stop = threading.Event()
 
@@ -97,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
         args.dir, listen, spool_dir=args.spool, forward=forward, quota_bytes=args.quota,
         publish=None if bridge is None else bridge.publish,
         publish_data=not args.no_image_data, max_rate_bps=args.max_rate,
-        forward_lanes=args.forward_lanes,
+        forward_lanes=args.forward_lanes, keys=keys,
     )
     try:
         service.start()

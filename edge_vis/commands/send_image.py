@@ -52,6 +52,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--confidence", type=float, help="ATR confidence 0..1")
     parser.add_argument("--position", metavar="LAT,LON[,DEPTH]",
                         help="ATR target position, degrees and metres")
+    parser.add_argument("--keys", type=Path, metavar="FILE",
+                        help="pre-shared bulk keys (TOML [keys] vehicle = \"hex\"); the "
+                             "--vehicle key answers a receiver that requires authentication")
     parser.add_argument("--lanes", type=int, default=1, metavar="N",
                         help="parallel UDT connections per file (1-16, default 1); on a lossy "
                              "radio 4-6 lanes carry several times what one does")
@@ -135,8 +138,11 @@ def run(args: argparse.Namespace) -> int:
     failures = 0
     if not 1 <= args.lanes <= 16:
         raise ConfigError(f"--lanes {args.lanes}: must be 1..16")
+    keys = udt.load_keys(args.keys) if args.keys is not None else None
+    if keys is not None and args.vehicle not in keys:
+        raise ConfigError(f"{args.keys}: no key for vehicle {args.vehicle!r}")
     with udt.BulkSender(to, max_rate_bps=args.max_rate, give_up_after=args.give_up,
-                        lanes=args.lanes) as sender:
+                        lanes=args.lanes, keys=keys) as sender:
         for path in args.files:
             try:
                 manifest = udt.manifest_for_file(

@@ -55,7 +55,7 @@ from cyclonedds.util import duration
 from edge_vis.dds.convert import Converter, converter_for, key_members
 from edge_vis.dds.qos import QosSettings, partition_qos, topic_qos
 from edge_vis.dds.topics import TopicKind, TopicRegistry, TopicSpec
-from edge_vis.errors import LinkError
+from edge_vis.errors import EdgeVisError, LinkError
 
 log = logging.getLogger(__name__)
 
@@ -65,6 +65,13 @@ OnSample = Callable[[str, dict[str, Any]], object]
 _ANY_SAMPLE = SampleState.Any | ViewState.Any | InstanceState.Any
 _BATCH = 256
 _RETCODE_PRECONDITION_NOT_MET = -4
+#: batches handed to the event loop and not yet delivered; past it the delivery thread
+#: waits, and samples stay in the readers' bounded histories (commands: newest 8)
+MAX_IN_FLIGHT = 64
+#: image products (and their bulk data) kept per topic for late joiners before the oldest
+#: is disposed: keep-all transient-local history would otherwise grow with every image
+MAX_PRODUCTS = 256
+_RETIRED_KINDS = (TopicKind.PRODUCT, TopicKind.BULK)
 
 # Domains created with an explicit configuration live as long as the process: deleting a
 # Cyclone domain deletes every participant in it, including other bridges'.
@@ -110,6 +117,8 @@ class DdsBridge:
     :mod:`edge_vis.dds.cyclone_config`). ``max_command_age``: if set (seconds), command
     samples whose source time stamp is older are dropped and counted; only meaningful with
     synchronised clocks (NTP/PTP) between operator stations and the relay.
+    ``max_products``: instances of each product/bulk topic (one per image) kept; past it
+    the oldest is disposed and unregistered (counted as ``products_retired``).
 
     Raises :class:`DdsError` if the participant cannot be created.
     """
@@ -123,6 +132,7 @@ class DdsBridge:
         qos: QosSettings | None = None,
         config: str | None = None,
         max_command_age: float | None = None,
+        max_products: int = MAX_PRODUCTS,
     ) -> None:
         if topics is None:
             registry = TopicRegistry.standard()
@@ -161,7 +171,12 @@ class DdsBridge:
             "received": 0,
             "stale_dropped": 0,
             "callback_errors": 0,
+            "handover_waits": 0,
+            "products_retired": 0,
         }
+        self.max_products = max_products
+        self._products: dict[str, dict[tuple[Any, ...], None]] = {}
+        self._in_flight = threading.Semaphore(MAX_IN_FLIGHT)
 
     # ------------------------------------------------------------------ writing
 
@@ -216,6 +231,27 @@ class DdsBridge:
         except DDSException as exc:
             raise DdsError(f"writing {topic!r} failed: {exc}") from exc
         self.counters["published"] += 1
+        spec = self.registry.get(topic)
+        if spec.kind in _RETIRED_KINDS:
+            self._retire_old(spec, sample)
+
+    def _retire_old(self, spec: TopicSpec, sample: Mapping[str, Any]) -> None:
+        """Bound the instances of a product topic: dispose the oldest past ``max_products``."""
+        names = key_members(spec.type)
+        key = tuple(sample.get(k) for k in names)
+        live = self._products.setdefault(spec.name, {})
+        live.pop(key, None)
+        live[key] = None
+        while len(live) > self.max_products:
+            old = next(iter(live))
+            del live[old]
+            self.counters["products_retired"] += 1
+            key_value = dict(zip(names, old, strict=True))
+            try:
+                self.dispose(spec.name, key_value)
+                self.unregister(spec.name, key_value)
+            except EdgeVisError as exc:
+                log.warning("cannot retire %s %s: %s", spec.name, old, exc)
 
     def dispose(self, topic: str, key: Any) -> None:
         """Mark the instance ``key`` of ``topic`` as gone (e.g. a vehicle that left).
@@ -367,10 +403,21 @@ class DdsBridge:
         if sub.loop is None:
             self._call(sub.on_sample, batch)
             return
+        if not self._in_flight.acquire(blocking=False):
+            self.counters["handover_waits"] += 1  # the loop is behind: wait, bounded
+            while not self._in_flight.acquire(timeout=0.5):
+                if self._closed:
+                    return
         try:
-            sub.loop.call_soon_threadsafe(self._call, sub.on_sample, batch)
+            sub.loop.call_soon_threadsafe(self._call_released, sub.on_sample, batch)
         except RuntimeError:  # the loop is closed: nobody is left to deliver to
+            self._in_flight.release()
             log.warning("dropped %d %s sample(s): event loop closed", len(batch), sub.spec.name)
+
+    def _call_released(self, on_sample: OnSample | None,
+                       batch: list[tuple[str, dict[str, Any]]]) -> None:
+        self._in_flight.release()
+        self._call(on_sample, batch)
 
     def _call(self, on_sample: OnSample | None, batch: list[tuple[str, dict[str, Any]]]) -> None:
         assert on_sample is not None

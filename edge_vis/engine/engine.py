@@ -360,7 +360,7 @@ class Engine:
                 continue
             links[vehicle.vehicle_id] = link
             reports = tuple(
-                (specs[sub.report], sub.state is SubscriptionState.POLLING)
+                (specs[sub.report], sub.polls)
                 for sub in vehicle.subscriptions.values()
                 if sub.report in specs and sub.state is not SubscriptionState.CANCELLING
             )
@@ -413,8 +413,7 @@ class Engine:
         if key in self._dropped:
             self._dropped.discard(key)
             sub.rate = rate
-            sub.state = SubscriptionState.NEW
-            self._send_requests(sub.provider, sub.start(now))
+            self._send_requests(sub.provider, sub.resume(now))
             self._touch(vehicle)
             return
         if abs(rate - sub.rate) > 1e-9:
@@ -743,8 +742,9 @@ class Engine:
         request_id = pick(fields, "request_id")
         for sub in vehicle.subscriptions.values():
             if sub.provider == source and sub.request_id == request_id:
+                polled = sub.polls
                 self._send_requests(source, sub.on_reject(pick(fields, "response_code"), now))
-                if sub.state is SubscriptionState.POLLING:
+                if polled != sub.polls:
                     self._plan_dirty = True
                 return
 
@@ -947,9 +947,9 @@ class Engine:
         if self._jaus_control(vehicle) != before:
             self._changed(vehicle, "control", now)
         for sub in vehicle.subscriptions.values():
-            polled = sub.state is SubscriptionState.POLLING
+            polled = sub.polls
             self._send_requests(sub.provider, sub.poll(now))
-            if polled != (sub.state is SubscriptionState.POLLING):
+            if polled != sub.polls:
                 self._plan_dirty = True  # a poll costs a query too: plan again
         if not self._shutting_down:
             self._pump_commands(vehicle, now)

@@ -133,6 +133,8 @@ class Subscription:
         self.updates_sent = 0
         #: cancelled while CreateEvent was in flight: cancel the event once confirmed
         self._cancel_when_confirmed = False
+        #: the provider answered queries only (since the last loss): plans count the query
+        self.polls = False
 
     # -- queries -----------------------------------------------------------------------
 
@@ -272,6 +274,7 @@ class Subscription:
 
     def on_lost(self) -> None:
         """The provider went silent: its events are gone; start over when it returns."""
+        self.polls = False  # it may come back with events (a restart, a new version)
         self.state = SubscriptionState.NEW
         self.event_id = None
         self.request_id = None
@@ -337,7 +340,13 @@ class Subscription:
         }
         return [Request("CreateEvent", fields)]
 
+    def resume(self, now: float) -> list[Request]:
+        """Start again after :meth:`cancel`: poll right away if the provider only polls."""
+        self._cancel_when_confirmed = False
+        return self._start_polling(now) if self.polls else self.start(now)
+
     def _start_polling(self, now: float) -> list[Request]:
+        self.polls = True
         self.state = SubscriptionState.POLLING
         self.event_id = None
         self.stale_deadline = None

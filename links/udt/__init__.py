@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from typing import ClassVar
 
+from links.udt.keys import load_keys
 from links.udt.link import BulkReceiver, BulkSender, Forwarder, TransferResult, parse_address
 from links.udt.protocol import AtrMetadata, Backoff, Manifest, Position, Reason
 from links.udt.service import ImageService, manifest_for_file, send_image
@@ -37,6 +38,7 @@ class UdtLink:
     send_image = staticmethod(send_image)
     manifest_for_file = staticmethod(manifest_for_file)
     parse_address = staticmethod(parse_address)
+    load_keys = staticmethod(load_keys)
     ImageService = ImageService
     BulkSender = BulkSender
     BulkReceiver = BulkReceiver

@@ -18,7 +18,7 @@ import contextlib
 import logging
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -211,10 +211,12 @@ class BulkSender:
         progress: ProgressFn | None = None,
         stall_timeout: float = 10.0,
         lanes: int = 1,
+        keys: Mapping[str, bytes] | None = None,
     ) -> None:
         if not 1 <= lanes <= MAX_LANES:
             raise ValueError(f"lanes must be 1..{MAX_LANES}")
         self.lanes = lanes
+        self.keys = keys  # vehicle id -> pre-shared key, to answer a receiver's challenge
         self.address = address
         self.max_rate_bps = max_rate_bps
         self.backoff = backoff or Backoff()
@@ -339,7 +341,7 @@ class BulkSender:
                 return sock, conn, True
             _close(sock)
         sock = _connect(self.address, self.connect_timeout, self.max_rate_bps)
-        return sock, SenderConnection(idle_timeout=self.idle_timeout), False
+        return sock, SenderConnection(idle_timeout=self.idle_timeout, keys=self.keys), False
 
     def close(self) -> None:
         """Close the connection kept open between files (idempotent)."""
@@ -375,7 +377,7 @@ class BulkSender:
                 # The kept connection died while idle (receiver restarted): a fresh one.
                 _close(sock)
                 sock = _connect(self.address, self.connect_timeout, self.max_rate_bps)
-                conn = SenderConnection(idle_timeout=self.idle_timeout)
+                conn = SenderConnection(idle_timeout=self.idle_timeout, keys=self.keys)
                 conn.send_manifest(manifest, time.monotonic())
                 _send_all(sock, conn.data_to_send())
                 answer = self._next_event(sock, conn)
@@ -450,6 +452,8 @@ class BulkSender:
         if isinstance(event, ProtocolErrorDetected):
             if event.code is Reason.TIMEOUT:
                 raise ConnectionLost(event.reason)
+            if event.code is Reason.UNAUTHENTICATED:
+                return TransferResult(False, event.reason, event.code)
             return TransferResult(False, f"receiver broke the protocol: {event.reason}", event.code)
         raise ConnectionLost(f"unexpected {event!r}")
 
@@ -513,8 +517,11 @@ class BulkReceiver:
         on_status: StatusFn | None = None,
         idle_timeout: float = 30.0,
         max_connections: int = 16,
+        keys: Mapping[str, bytes] | None = None,
     ) -> None:
         self.spool = spool
+        #: vehicle id -> pre-shared key; when set, only those vehicles may deliver
+        self.keys = keys
         self._bind = bind
         self.on_verified = on_verified
         self.on_status = on_status
@@ -527,7 +534,8 @@ class BulkReceiver:
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._local = threading.local()
-        self.counters = {"connections": 0, "protocol_errors": 0, "refused": 0, "verified": 0}
+        self.counters = {"connections": 0, "protocol_errors": 0, "refused": 0, "verified": 0,
+                         "unauthenticated": 0}
 
     @property
     def address(self) -> tuple[str, int]:
@@ -626,7 +634,7 @@ class BulkReceiver:
             self._conns[id(sock)] = sock
         self._local.sock = sock
         sock.UDT_RCVTIMEO = POLL_MS
-        conn = ReceiverConnection(idle_timeout=self.idle_timeout)
+        conn = ReceiverConnection(idle_timeout=self.idle_timeout, keys=self.keys)
         buf = bytearray(DATA_CHUNK)
         current: Manifest | None = None
         try:
@@ -754,6 +762,8 @@ class BulkReceiver:
             return None
         if isinstance(event, ManifestRejected):
             self.counters["refused"] += 1
+            if event.code is Reason.UNAUTHENTICATED:
+                self.counters["unauthenticated"] += 1
             log.warning("refused a manifest from %s (%s): %s", peer, event.code.name, event.reason)
             return current
         if isinstance(event, ProtocolErrorDetected):
@@ -784,6 +794,7 @@ class Forwarder:
         backoff: Backoff | None = None,
         connect_timeout: float = 1.0,
         lanes: int = 1,
+        keys: Mapping[str, bytes] | None = None,
     ) -> None:
         self.spool = spool
         self.target = target
@@ -795,7 +806,7 @@ class Forwarder:
             backoff=backoff or Backoff(initial=0.2, maximum=5.0),
             connect_timeout=connect_timeout, give_up_after=None,
             retry_refusals=frozenset({Reason.BUSY, Reason.QUOTA, Reason.STORAGE}),
-            stop=self._stop, lanes=lanes,
+            stop=self._stop, lanes=lanes, keys=keys,
         )
         self._thread: threading.Thread | None = None
         self.counters = {"forwarded": 0, "rejected": 0}

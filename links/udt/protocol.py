@@ -27,6 +27,14 @@ the RECEIPT of that one carries the SHA-256 verdict on the whole file.
 Either side may send ERROR before closing when the other broke a rule (garbage, a frame
 out of place, data past the size).
 
+Authentication. A receiver given per-vehicle pre-shared keys answers each MANIFEST with a
+CHALLENGE (32 fresh random bytes) instead of deciding; the sender answers with AUTH, the
+HMAC-SHA256 under its vehicle's key of ``AUTH_LABEL || challenge || manifest bytes``
+(:func:`auth_tag`). Only a matching tag lets the manifest through; a vehicle without a
+key, a wrong tag or no answer gets REFUSE(UNAUTHENTICATED). The challenge is new for every
+manifest, so a recorded MANIFEST + AUTH replayed later (or on another connection) fails.
+A receiver without keys never challenges, and a sender without a key cannot answer one.
+
 Sender states (``SenderConnection``)::
 
     IDLE --send_manifest--> AWAIT_ANSWER --ACCEPT--> SENDING --last byte--> AWAIT_RECEIPT
@@ -49,11 +57,14 @@ passed on as they arrive and never buffered whole.
 from __future__ import annotations
 
 import hashlib
+import hmac
 import json
 import math
 import random
 import re
+import secrets
 import struct
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field, replace
 from enum import Enum, IntEnum
 from typing import Any
@@ -78,6 +89,8 @@ class FrameType(IntEnum):
     DATA = 4
     RECEIPT = 5
     ERROR = 6
+    CHALLENGE = 7
+    AUTH = 8
 
 
 MAX_PAYLOAD: dict[FrameType, int] = {
@@ -87,6 +100,8 @@ MAX_PAYLOAD: dict[FrameType, int] = {
     FrameType.DATA: DATA_CHUNK,
     FrameType.RECEIPT: 4 * 1024,
     FrameType.ERROR: 4 * 1024,
+    FrameType.CHALLENGE: 32,
+    FrameType.AUTH: 32,
 }
 MIN_PAYLOAD: dict[FrameType, int] = {
     FrameType.MANIFEST: 2,
@@ -95,7 +110,13 @@ MIN_PAYLOAD: dict[FrameType, int] = {
     FrameType.DATA: 1,
     FrameType.RECEIPT: 33,
     FrameType.ERROR: 2,
+    FrameType.CHALLENGE: 32,
+    FrameType.AUTH: 32,
 }
+#: domain separation of the authentication tag
+AUTH_LABEL = b"edge-vis bulk manifest auth v1\x00"
+#: shortest pre-shared key accepted (bytes)
+MIN_KEY_BYTES = 16
 
 
 class Reason(IntEnum):
@@ -112,6 +133,7 @@ class Reason(IntEnum):
     STORAGE = 9
     TIMEOUT = 10
     SHUTDOWN = 11
+    UNAUTHENTICATED = 12
     UNKNOWN = 0xFFFF
 
     @classmethod
@@ -339,6 +361,11 @@ def _atr(value: object) -> AtrMetadata | None:
     return AtrMetadata(cls_, conf, position)
 
 
+def auth_tag(key: bytes, challenge: bytes, manifest_bytes: bytes) -> bytes:
+    """HMAC-SHA256 that proves the sender holds ``key`` for this manifest and challenge."""
+    return hmac.new(key, AUTH_LABEL + challenge + manifest_bytes, hashlib.sha256).digest()
+
+
 def transfer_id_for(vehicle_id: str, name: str, sha256: str) -> str:
     """A transfer id stable across sender restarts, so a re-run resumes instead of restarting."""
     key = f"{vehicle_id}\x00{name}\x00{sha256}".encode()
@@ -533,6 +560,7 @@ class State(Enum):
     AWAIT_RECEIPT = "await-receipt"
     AWAIT_MANIFEST = "await-manifest"
     DECIDING = "deciding"
+    AWAIT_AUTH = "await-auth"
     RECEIVING = "receiving"
     VERIFYING = "verifying"
     CLOSED = "closed"
@@ -619,11 +647,19 @@ def _text(raw: bytes) -> str:
 
 @dataclass
 class ReceiverConnection(_Base):
-    """The receiving end of one connection: validates, tracks offsets, asks for decisions."""
+    """The receiving end of one connection: validates, tracks offsets, asks for decisions.
+
+    ``keys`` (vehicle id -> pre-shared key) turns authentication on: every manifest must
+    be answered to a fresh challenge (see the module docstring). ``None``: off.
+    """
 
     state: State = State.AWAIT_MANIFEST
     manifest: Manifest | None = None
     offset: int = 0
+    keys: Mapping[str, bytes] | None = None
+    nonce: Callable[[], bytes] = field(default=lambda: secrets.token_bytes(32))
+    _challenge: bytes = b""
+    _manifest_bytes: bytes = b""
 
     def _frame(self, ftype: FrameType, payload: bytes) -> list[Event]:
         if ftype is FrameType.MANIFEST and self.state is State.AWAIT_MANIFEST:
@@ -632,7 +668,28 @@ class ReceiverConnection(_Base):
             except ManifestError as exc:
                 self._out.append(encode_frame(FrameType.REFUSE, _coded(exc.code, exc.reason)))
                 return [ManifestRejected(exc.code, exc.reason)]
+            if self.keys is not None:
+                if manifest.vehicle_id not in self.keys:
+                    return [self._unauthenticated(
+                        f"no key for vehicle {manifest.vehicle_id!r}: not accepted here")]
+                self.manifest = manifest
+                self._manifest_bytes = payload
+                self._challenge = self.nonce()
+                self._out.append(encode_frame(FrameType.CHALLENGE, self._challenge))
+                self.state = State.AWAIT_AUTH
+                return []
             self.manifest = manifest
+            self.state = State.DECIDING
+            return [ManifestReceived(manifest)]
+        if ftype is FrameType.AUTH and self.state is State.AWAIT_AUTH:
+            assert self.manifest is not None and self.keys is not None
+            manifest, challenge = self.manifest, self._challenge
+            self._challenge = b""  # one answer per challenge: never reusable
+            expected = auth_tag(self.keys[manifest.vehicle_id], challenge, self._manifest_bytes)
+            if not hmac.compare_digest(expected, payload):
+                self.manifest = None
+                return [self._unauthenticated(
+                    f"authentication failed for vehicle {manifest.vehicle_id!r}: wrong key")]
             self.state = State.DECIDING
             return [ManifestReceived(manifest)]
         if ftype is FrameType.DATA and self.state is State.RECEIVING:
@@ -651,6 +708,12 @@ class ReceiverConnection(_Base):
                 return [event, DataComplete(self.manifest)]
             return [event]
         raise self._unexpected(ftype)
+
+    def _unauthenticated(self, reason: str) -> ManifestRejected:
+        self._out.append(encode_frame(FrameType.REFUSE, _coded(Reason.UNAUTHENTICATED, reason)))
+        self.manifest = None
+        self.state = State.AWAIT_MANIFEST
+        return ManifestRejected(Reason.UNAUTHENTICATED, reason)
 
     def accept(self, offset: int) -> list[Event]:
         """Tell the sender to go on from ``offset``; ``DataComplete`` if nothing is missing."""
@@ -688,17 +751,25 @@ class ReceiverConnection(_Base):
 
 @dataclass
 class SenderConnection(_Base):
-    """The sending end of one connection: one transfer at a time, data only when accepted."""
+    """The sending end of one connection: one transfer at a time, data only when accepted.
+
+    ``keys`` (vehicle id -> pre-shared key) answer a receiver's challenge.
+    """
 
     manifest: Manifest | None = None
     offset: int = 0
+    keys: Mapping[str, bytes] | None = None
+    _manifest_bytes: bytes = b""
+    _answered: bool = False
 
     def send_manifest(self, manifest: Manifest, now: float) -> None:
         """Announce a transfer; the answer arrives as ``Accepted`` or ``Refused``."""
         if self.state is not State.IDLE:
             raise BulkProtocolError(f"send_manifest() in state {self.state.value}")
-        self._out.append(encode_frame(FrameType.MANIFEST, manifest.to_json()))
+        self._manifest_bytes = manifest.to_json()
+        self._out.append(encode_frame(FrameType.MANIFEST, self._manifest_bytes))
         self.manifest = manifest
+        self._answered = False
         self.state = State.AWAIT_ANSWER
         self._last_activity = now
 
@@ -727,6 +798,17 @@ class SenderConnection(_Base):
         if self.manifest is None:
             raise self._unexpected(ftype)
         tid = self.manifest.transfer_id
+        if ftype is FrameType.CHALLENGE and self.state is State.AWAIT_ANSWER \
+                and not self._answered:
+            key = (self.keys or {}).get(self.manifest.vehicle_id)
+            if key is None:
+                raise _Garbage(f"the receiver requires authentication and there is no key "
+                               f"for vehicle {self.manifest.vehicle_id!r}",
+                               Reason.UNAUTHENTICATED)
+            self._answered = True
+            self._out.append(encode_frame(FrameType.AUTH,
+                                          auth_tag(key, payload, self._manifest_bytes)))
+            return []
         if ftype is FrameType.ACCEPT and self.state is State.AWAIT_ANSWER:
             (offset,) = struct.unpack(">Q", payload)
             if offset > self.manifest.length:

@@ -13,7 +13,7 @@ import logging
 import os
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -83,13 +83,17 @@ def send_image(
     stop: threading.Event | None = None,
     stall_timeout: float = 10.0,
     lanes: int = 1,
+    keys: Mapping[str, bytes] | None = None,
 ) -> TransferResult:
-    """Send one file and wait for the receipt; ``result.ok`` only if the hash was confirmed."""
+    """Send one file and wait for the receipt; ``result.ok`` only if the hash was confirmed.
+
+    ``keys`` (vehicle id -> pre-shared key) answer a receiver that requires authentication.
+    """
     m = manifest or manifest_for_file(path, vehicle_id=vehicle_id)
     with BulkSender(
         _address(to), max_rate_bps=max_rate_bps, progress=progress,
         give_up_after=give_up_after, backoff=backoff, stop=stop, stall_timeout=stall_timeout,
-        lanes=lanes,
+        lanes=lanes, keys=keys,
     ) as sender:
         return sender.send_file(path, m)
 
@@ -100,6 +104,8 @@ class ImageService:
     The spool lives in ``spool_dir`` (default ``<out_dir>/.spool``); verified files appear
     as ``<out_dir>/<vehicle_id>/<name>``. ``forward`` lists ``HOST:PORT`` receivers each
     file must reach; ``publish`` gets every ``ImageProduct``/``ImageData``/``TransferStatus``.
+    With ``keys`` (vehicle id -> pre-shared key) only those vehicles may deliver, each
+    proving it holds its key; the forwarders answer downstream challenges with them.
     """
 
     def __init__(
@@ -116,6 +122,7 @@ class ImageService:
         idle_timeout: float = 30.0,
         forward_backoff: Backoff | None = None,
         forward_lanes: int = 1,
+        keys: Mapping[str, bytes] | None = None,
     ) -> None:
         self.out_dir = Path(out_dir)
         targets = [_address(t) for t in forward]
@@ -127,11 +134,11 @@ class ImageService:
         self.publish_data = publish_data
         self.receiver = BulkReceiver(
             self.spool, _address(listen), on_verified=self._verified, on_status=self._status,
-            idle_timeout=idle_timeout,
+            idle_timeout=idle_timeout, keys=keys,
         )
         self.forwarders = [
             Forwarder(self.spool, t, max_rate_bps=max_rate_bps, backoff=forward_backoff,
-                      lanes=forward_lanes)
+                      lanes=forward_lanes, keys=keys)
             for t in targets
         ]
         self._rates: dict[str, tuple[float, int]] = {}

@@ -166,8 +166,9 @@ class RadioHub:
 
     def _note_pose(self, frame: Frame, now: float) -> None:
         payload = frame.packet.payload
-        if frame.packet.message_code == EVENT and len(payload) >= 10 \
-                and int.from_bytes(payload[8:10], "little") == POSE:
+        code = frame.packet.message_code
+        if code == POSE or (code == EVENT and len(payload) >= 10
+                            and int.from_bytes(payload[8:10], "little") == POSE):
             self.stats.poses.append((frame.packet.source.subsystem, now, frame.queued))
 
 

@@ -98,6 +98,7 @@ def test_a_report_dropped_while_createevent_is_in_flight_is_cancelled_once_confi
     sub = Subscription(JausAddress(101, 1, 1), "ReportGlobalPose", "QueryGlobalPose", {},
                        2.0, False, EventsProfile(), lambda n, f: b"\x02\x24", lambda: next(ids))
     [create] = sub.start(0.0)
+    assert create.name == "CreateEvent"
     assert sub.cancel(0.1) == []  # nothing to cancel yet
     [cancel] = sub.on_confirm(event_id=9, rate=2.0, now=0.2)
     assert cancel.name == "CancelEvent" and cancel.fields["event_id"] == 9

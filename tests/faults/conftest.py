@@ -86,7 +86,7 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:  # ty
         return
     write = terminalreporter.write_line
     terminalreporter.section("fault matrix")
-    write(f"{'medium':<7}{"fault":<40}{'result':<8}{'recovery':>9}  checked")
+    write(f"{'medium':<7}{'fault':<40}{'result':<8}{'recovery':>9}  checked")
     for r in _RESULTS:
         took = f"{r.recovery_s:7.2f} s" if r.recovery_s is not None else "      -  "
         write(f"{r.medium:<7}{r.fault:<40}{r.outcome:<8}{took:>9}  "
