@@ -219,7 +219,7 @@ class FleetView:
         if self.links:
             lines.append("")
             lines.append(f"{'LINK':<10}{'UP':<4}{'USE':>7} {'BUDGET':>10} {'IN/OUT msgs':>16}"
-                         f"{'DROPS':>7}"[:width])
+                         f"{'QUEUE':>7}{'DROPS':>7}"[:width])
             for name in sorted(self.links):
                 link = self.links[name]
                 budget = float(link.get("budget_bps", 0.0) or 0.0)
@@ -229,8 +229,9 @@ class FleetView:
                 drops = sum(int(d.get("count", 0)) for d in link.get("drops", []) or [])
                 msgs = f"{link.get('messages_in', 0)}/{link.get('messages_out', 0)}"
                 budget_text = f"{budget / 1000:.1f} kb/s" if budget > 0 else "unlimited"
+                queue = int(link.get("queue_depth", 0) or 0)
                 lines.append((f"{name[:9]:<10}{'yes' if link.get('up') else 'NO':<4}{use:>7} "
-                              f"{budget_text:>10} {msgs:>16}{drops:>7}")[:width])
+                              f"{budget_text:>10} {msgs:>16}{queue:>7}{drops:>7}")[:width])
         return lines
 
     def summary(self) -> dict[str, Any]:
