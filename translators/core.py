@@ -93,3 +93,41 @@ class CoreTranslator(Translator):
         if change == "control":
             return [Publish("ControlStatus", control_sample(view, ctx.timestamp_ms))]
         return []
+
+    def describe(self) -> list[dict[str, Any]]:
+        """Mapping-table rows: what reaches these topics, through the engine's vehicle view."""
+        return [_row(*row) for row in _ROWS]
+
+
+#: (direction, JAUS message, DDS topic, [(JAUS field, DDS member, note)], query, doc)
+_ROWS: tuple[tuple[str, str, str, list[tuple[str, str, str]], str, str], ...] = (
+    ("jaus->dds", "ReportIdentification", "VehicleIdentification",
+     [("identification", "name", "as reported"), ("type", "vehicle_type", "VEHICLE, OCU, ..."),
+      ("(source address)", "jaus_subsystem, jaus_address", "")],
+     "QueryIdentification", "broadcast by discovery; vehicle_id = profile id or name-subsystem"),
+    ("jaus->dds", "ReportServices", "VehicleIdentification",
+     [("node_list[].component_list[].service_list[]", "services[] (uri, version)",
+       "major.minor; inherited core services added")], "QueryServices", ""),
+    ("jaus->dds", "ReportStatus", "VehicleStatus",
+     [("status", "state", "INITIALIZE, READY, STANDBY, SHUTDOWN, FAILURE, EMERGENCY")],
+     "QueryStatus", "also online/offline and last_seen_ms from liveness"),
+    ("jaus->dds", "ReportHeartbeatPulse", "VehicleStatus",
+     [("(arrival)", "online, last_seen_ms", "")], "QueryHeartbeatPulse", "liveness"),
+    ("jaus->dds", "ConfirmControl", "ControlStatus",
+     [("response_code", "state", "0 -> CONTROLLED, else REJECTED")], "",
+     "answer to the relay's RequestControl"),
+    ("jaus->dds", "RejectControl", "ControlStatus",
+     [("response_code", "state", "control lost -> REQUESTED again or NOT_CONTROLLED")], "", ""),
+    ("dds->jaus", "RequestControl", "ControlRequest",
+     [("authority_code", "(relay authority)", "when an operator wins arbitration")], "",
+     "one operator at a time; higher authority preempts; renewed before the timeout"),
+    ("dds->jaus", "ReleaseControl", "ControlRequest",
+     [("", "action = release", "when the last operator releases")], "", ""),
+)
+
+
+def _row(direction: str, message: str, topic: str, fields: list[tuple[str, str, str]],
+         query: str, doc: str) -> dict[str, Any]:
+    return {"translator": "core", "direction": direction, "message": message, "topic": topic,
+            "query": query, "service": "", "rate": None,
+            "fields": [{"jaus": j, "dds": d, "note": n} for j, d, n in fields], "doc": doc}
