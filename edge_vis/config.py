@@ -204,6 +204,22 @@ class TranslatorSelection:
 
 
 @dataclass(frozen=True, slots=True)
+class BulkProfile:
+    """``[bulk]``: the relay receives ATR images over UDT, spools and verifies them,
+    publishes them on DDS and forwards them to downstream receivers."""
+
+    listen: str
+    directory: Path
+    spool: Path | None = None
+    forward: tuple[str, ...] = ()
+    quota_bytes: int | None = None
+    max_rate_bps: int | None = None
+    forward_lanes: int = 1
+    keys: Path | None = None
+    publish_data: bool = True
+
+
+@dataclass(frozen=True, slots=True)
 class RelayProfile:
     """A whole deployment profile."""
 
@@ -227,6 +243,7 @@ class RelayProfile:
     #: ``[[operators]]`` refuses everyone unless ``access.any_operator = true``
     operators: OperatorPolicy = field(default_factory=OperatorPolicy.open)
     limits: LimitsProfile = field(default_factory=LimitsProfile)
+    bulk: BulkProfile | None = None
 
     def vehicle_by_subsystem(self, subsystem: int) -> VehicleProfile | None:
         """The vehicle profile claiming JAUS ``subsystem``, if any."""
@@ -650,6 +667,8 @@ def from_mapping(data: Mapping[str, Any], *, file: str = "",
             problems.add(vehicle.source, f"{key}.subsystem" if vehicle.source == file
                          else "subsystem", f"subsystem {vehicle.subsystem} is the relay's own")
 
+    bulk = _bulk(root.table("bulk"), base_dir) if "bulk" in root.data else None
+
     cat = root.table("catalogue")
     jsidl = []
     for i, entry in enumerate(_str_list(cat, "jsidl", ())):
@@ -666,7 +685,46 @@ def from_mapping(data: Mapping[str, Any], *, file: str = "",
         raise ConfigError(problems.items)
     return RelayProfile(jaus_id, authority, name, tuple(links), dds, translators, discovery,
                         control, events, commands, report_rates, tuple(vehicles), tuple(jsidl),
-                        file, report_minimums, report_priorities, operators, limits)
+                        file, report_minimums, report_priorities, operators, limits, bulk)
+
+
+def _bulk(b: _Reader, base_dir: Path | None) -> BulkProfile | None:
+    """``[bulk] listen, dir, spool, forward, quota, max_rate, forward_lanes, keys, ...``."""
+
+    def path(value: str) -> Path:
+        p = Path(value)
+        return base_dir / p if base_dir is not None and not p.is_absolute() else p
+
+    def host_port(value: str) -> str | None:
+        host, _, port = value.rpartition(":")
+        return None if host and port.isdigit() and int(port) < 65536 else \
+            f"{value!r} is not HOST:PORT"
+
+    for required, what in (("listen", "HOST:PORT to receive on"), ("dir", "where images go")):
+        if required not in b.data:
+            b.problem(required, f"missing ({what})")
+    listen = b.get("listen", str, "", host_port)
+    directory = b.get("dir", str, "")
+    spool = b.get("spool", str, "")
+    forward = _str_list(b, "forward", ())
+    for i, target in enumerate(forward):
+        problem = host_port(target)
+        if problem:
+            b.problem(f"forward[{i}]", problem)
+    quota = b.get("quota", int, 0, _non_negative)
+    max_rate = b.get("max_rate", int, 0, _non_negative)
+    lanes = b.get("forward_lanes", int, 1,
+                  lambda v: None if 1 <= v <= 16 else f"must be 1..16, got {v}")
+    keys = b.get("keys", str, "")
+    if keys and not path(keys).is_file():
+        b.problem("keys", f"no such file: {path(keys)}")
+    publish_data = b.get("publish_data", bool, True)
+    b.finish()
+    if not listen or not directory:
+        return None
+    return BulkProfile(listen, path(directory), path(spool) if spool else None, forward,
+                       quota or None, max_rate or None, lanes, path(keys) if keys else None,
+                       publish_data)
 
 
 def _operators(root: _Reader, any_operator_default: bool) -> OperatorPolicy:

@@ -30,7 +30,7 @@ from edge_vis.bandwidth.demands import FleetPlanner
 from edge_vis.bandwidth.linkspec import DEFAULT_PRIORITIES, LinkSpec
 from edge_vis.bandwidth.scheduler import class_names, priority_for
 from edge_vis.catalogue import Catalogue, default_catalogue
-from edge_vis.config import RelayProfile
+from edge_vis.config import BulkProfile, RelayProfile
 from edge_vis.engine.actions import Publish, SendMessage, ShutdownComplete
 from edge_vis.engine.engine import Engine
 from edge_vis.errors import CodecError, EdgeVisError, EncodeError
@@ -103,6 +103,7 @@ class Runtime:
         self._status_task: asyncio.Task[None] | None = None
         self._log = _RateLimitedLog()
         self.first_discovery_at: float | None = None
+        self.images: Any = None  # the UDT image service, when the profile has [bulk]
         #: the bandwidth planner, when a link has a link profile (see edge_vis.bandwidth)
         self.planner: FleetPlanner | None = None
 
@@ -123,6 +124,8 @@ class Runtime:
             self.publisher = self._open_dds()
         elif callable(self._publisher_factory):
             self.publisher = self._publisher_factory(self)
+        if self.profile.bulk is not None:
+            self._start_bulk(self.profile.bulk)
         for link_profile in self.profile.links:
             await self._open_link(link_profile.name, link_profile.url, link_profile.bandwidth)
         log.info(
@@ -170,6 +173,25 @@ class Runtime:
     def _link_of(self, address: Any) -> str | None:
         route = self.router.lookup(address)
         return route.link if route is not None else None
+
+    def _start_bulk(self, bulk: BulkProfile) -> None:
+        """The UDT image receiver: spooled, verified, published here, forwarded on."""
+        udt = plugins.load(plugins.LINKS, "udt")
+        loop = self._loop
+        assert loop is not None
+
+        def publish(topic: str, sample: dict[str, Any]) -> None:  # from UDT threads
+            loop.call_soon_threadsafe(self._publish, topic, sample)
+
+        self.images = udt.ImageService(
+            bulk.directory, bulk.listen, spool_dir=bulk.spool, forward=bulk.forward,
+            quota_bytes=bulk.quota_bytes, publish=publish, publish_data=bulk.publish_data,
+            max_rate_bps=bulk.max_rate_bps, forward_lanes=bulk.forward_lanes,
+            keys=udt.load_keys(bulk.keys) if bulk.keys is not None else None,
+        ).start()
+        host, port = self.images.address
+        log.info("receiving images over UDT on %s:%d into %s%s", host, port, bulk.directory,
+                 f", forwarding to {', '.join(bulk.forward)}" if bulk.forward else "")
 
     def _open_dds(self) -> Any:
         from edge_vis.dds.bridge import DdsBridge  # imported lazily: cyclonedds is optional
@@ -242,6 +264,9 @@ class Runtime:
             # let the last queued packets leave
             self._on_timer()
             await asyncio.sleep(0.05)
+        if self.images is not None:
+            self.images.stop()  # what was received stays in the spool for the next start
+            self.images = None
         if self._status_task is not None:
             self._status_task.cancel()
         if self._timer is not None:
