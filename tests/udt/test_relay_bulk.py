@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import asyncio
 import tomllib
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
-from edge_vis.config import from_mapping
+from edge_vis.config import RelayProfile, from_mapping
 from edge_vis.errors import ConfigError
 from edge_vis.runtime import Runtime
 
@@ -32,7 +33,7 @@ class Recorder:
         pass
 
 
-def profile(tmp_path: Path, port: int):  # noqa: ANN201 - a RelayProfile
+def profile(tmp_path: Path, port: int) -> RelayProfile:
     text = f"""
     [access]
     any_operator = true
@@ -44,7 +45,9 @@ def profile(tmp_path: Path, port: int):  # noqa: ANN201 - a RelayProfile
     return from_mapping(tomllib.loads(text), file="relay.toml")
 
 
-def test_relay_receives_verifies_and_announces_an_image(tmp_path: Path, make_file) -> None:  # noqa: ANN001
+def test_relay_receives_verifies_and_announces_an_image(
+    tmp_path: Path, make_file: Callable[..., tuple[Path, bytes]]
+) -> None:
     port = free_udp_port()
     path, content = make_file(300_000, "atr-7.png")
     recorder = Recorder()
