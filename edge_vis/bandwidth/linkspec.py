@@ -188,7 +188,7 @@ def link_profile_dirs(base_dir: Path | None) -> list[Path]:
     dirs = []
     if base_dir is not None:
         dirs += [base_dir / "links", base_dir.parent / "links", base_dir]
-    dirs.append(Path(__file__).resolve().parents[2] / "profiles" / "links")
+    dirs.append(Path(__file__).resolve().parents[1] / "data" / "links")  # shipped, in the package
     return dirs
 
 
