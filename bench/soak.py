@@ -102,6 +102,9 @@ partitions = ["{partition}"]
 id = "{OPERATOR}"
 max_authority = 200
 
+[limits]
+max_products = 64          # image products kept for late joiners (the UGVs report stills)
+
 [discovery]
 period = 2.0
 liveness_period = 1.0

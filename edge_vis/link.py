@@ -30,6 +30,7 @@ a :class:`LinkStats` snapshot for health reporting.
 from __future__ import annotations
 
 import logging
+import re
 from abc import ABC, abstractmethod
 from collections import Counter
 from collections.abc import Callable, Hashable, Iterable, Mapping, Sequence
@@ -201,6 +202,15 @@ class LinkCounters:
         }
 
 
+_NUMBERS = re.compile(r"0x[0-9A-Fa-f]+|\d+")
+
+
+def drop_reason(reason: str) -> str:
+    """The kind of a decode error, without its values: ``data size N exceeds the N bytes
+    left``. Counters are keyed by it, so they stay few however varied the bad input."""
+    return _NUMBERS.sub("N", reason.split(" (")[0])[:80]
+
+
 def format_peer(peer: Peer | None) -> str:
     """``127.0.0.2:3794`` for an (ip, port) tuple; ``str()`` otherwise; ``*`` for broadcast."""
     if peer is None:
@@ -357,7 +367,7 @@ class Link(ABC):
     def _malformed(self, peer: Peer | None, reason: str, data: bytes) -> None:
         """Count and log bad input (the log is DEBUG: a noisy radio must not flood it)."""
         self.counters.bad_input(peer)
-        self.counters.dropped(f"malformed: {reason.split(':')[0]}")
+        self.counters.dropped(f"malformed: {drop_reason(reason)}")
         log.debug("%s: dropped %d bytes from %s: %s", self.name, len(data), format_peer(peer),
                   reason)
 

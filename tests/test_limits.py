@@ -229,8 +229,6 @@ def test_limits_are_checked_in_the_profile(key: str, value: int) -> None:
             in err.value.problems)
 
 
-@pytest.mark.xfail(strict=True, reason="edge_vis.link keys drops by the full decode message, "
-                   "values included: one counter per bad value (needs a change in link.py)")
 def test_link_drop_reasons_are_a_small_vocabulary() -> None:
     """The drop counters (published in LinkStatus) must not grow with random input."""
     from edge_vis.jaus.transport import unpack_datagram
