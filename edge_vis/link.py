@@ -169,6 +169,7 @@ class LinkCounters:
         if counters is None:
             if len(self._peers) >= MAX_TRACKED_PEERS:
                 del self._peers[next(iter(self._peers))]
+                self.drops["peer counters forgotten: table full"] += 1
             counters = self._peers[peer] = _PeerCounters()
         return counters
 

@@ -291,6 +291,7 @@ class UdpLink(Link):
             learned[addr] = None
             if len(learned) > MAX_LEARNED:
                 learned.popitem(last=False)
+                self.counters.dropped("learned peers forgotten: table full")
 
 
 def _is_ip(text: str) -> bool:
