@@ -34,6 +34,7 @@ from edge_vis.config import BulkProfile, RelayProfile
 from edge_vis.engine.actions import Publish, SendMessage, ShutdownComplete
 from edge_vis.engine.engine import Engine
 from edge_vis.errors import CodecError, EdgeVisError, EncodeError
+from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import Broadcast, Packet
 from edge_vis.link import Link, LinkUrl, Peer
 from edge_vis.mirror import Mirror
@@ -120,6 +121,7 @@ class Runtime:
             self.profile, catalogue=self.catalogue, wall_offset=time.time() - loop.time(),
             planner=self.planner,
         )
+        self.engine.link_of = self._link_of
         if self._publisher_factory == "dds":
             self.publisher = self._open_dds()
         elif callable(self._publisher_factory):
@@ -235,6 +237,10 @@ class Runtime:
         now = self._loop.time()
         self.engine.set_link_rate(link, bit_rate, now)
         self._pump_engine(now)
+
+    def _link_of(self, address: JausAddress) -> str:
+        route = self.router.lookup(address)
+        return route.link if route is not None else ""
 
     def request_stop(self) -> None:
         """Ask the relay to stop (signal handlers call this)."""

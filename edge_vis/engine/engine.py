@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import logging
 from collections import Counter
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -158,6 +158,9 @@ class Engine:
         self._dropped: set[tuple[str, str]] = set()
         # The timer pass visits every vehicle; an input only changes the vehicles it
         # touches, so between deadlines only those are visited (see _run).
+        #: the name of the link a JAUS address is reached over (the runtime asks its
+        #: router); vehicle profiles that name their link take precedence
+        self.link_of: Callable[[JausAddress], str] = lambda _address: ""
         self._touched: dict[int, Vehicle] = {}
         self._vehicle_due: float | None = None
         self._due_valid = False
@@ -1044,7 +1047,8 @@ class Engine:
             components=dict(vehicle.components),
             online=vehicle.online,
             state=vehicle.state_name(),
-            link=vehicle.profile.link if vehicle.profile else "",
+            link=(vehicle.profile.link if vehicle.profile and vehicle.profile.link
+                  else self.link_of(vehicle.address) if vehicle.address is not None else ""),
             last_seen=vehicle.last_seen,
             last_seen_ms=last_ms,
             controller=holder.operator_id if holder else "",

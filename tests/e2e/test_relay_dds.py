@@ -71,6 +71,8 @@ def test_pose_reaches_dds_and_commands_need_control(
         vehicle_id = got[0]["vehicle_id"]
         ident = await asyncio.to_thread(idents.collect, 1, 5.0)
         assert ident and ident[0]["name"] == "TestBot" and ident[0]["jaus_subsystem"] == 77
+        status = await asyncio.to_thread(operator.reader("VehicleStatus").collect, 1, 5.0)
+        assert status and status[-1]["link"] == "lan"  # the link the vehicle was heard on
         # The relay asked for events and the peer confirmed them: no fallback polling.
         assert peer.names("CreateEvent")
 
