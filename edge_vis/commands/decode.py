@@ -51,8 +51,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="decode UDP datagrams on every port of a capture")
     parser.add_argument("--jsidl", nargs="+", default=[], metavar="FILE",
                         help="extra JSIDL files whose messages should decode too")
-    parser.add_argument("--compact", action="store_true", default=True,
-                        help=argparse.SUPPRESS)
 
 
 class _Output:

@@ -2,27 +2,21 @@
 
 Each cell records what it checked and how long recovery took through the ``fault_record``
 fixture; ``pytest_terminal_summary`` prints one line per cell (also for a failed cell,
-with what it was waiting for). Cyclone DDS runs on loopback only (``loopback_config``)
-with a domain and partition per test, as in ``tests/e2e``.
+with what it was waiting for). Cyclone DDS runs on loopback only, with a domain and
+partition per test: those fixtures are the shared ones in ``tests/conftest.py``.
 """
 
 from __future__ import annotations
 
-import itertools
-import os
-import uuid
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import pytest
 
 try:
-    from edge_vis.dds import loopback_config
+    import cyclonedds  # noqa: F401
 except ImportError:  # Cyclone DDS is not installed: nothing here can run
     collect_ignore_glob = ["test_*.py"]
-
-_DOMAIN_IDS = itertools.count(0)
-_DOMAIN_BASE = 100 + os.getpid() % 60
 
 
 @dataclass
@@ -38,25 +32,6 @@ class FaultResult:
 
 
 _RESULTS: list[FaultResult] = []
-
-
-@pytest.fixture(scope="session", autouse=True)
-def loopback_cyclone() -> Iterator[str]:
-    """Point Cyclone DDS at the loopback interface for the whole session."""
-    config = loopback_config()
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("CYCLONEDDS_URI", config)
-        yield config
-
-
-@pytest.fixture
-def domain_id() -> int:
-    return _DOMAIN_BASE + next(_DOMAIN_IDS) % 60
-
-
-@pytest.fixture
-def partition() -> str:
-    return f"edge-vis-faults-{uuid.uuid4().hex[:12]}"
 
 
 @pytest.fixture
