@@ -20,7 +20,12 @@ Every ``--sample`` seconds the relay's resident memory, open file descriptors an
   rates shows up as several MiB per minute), or file descriptors or threads grow;
 * counts go missing: after warm-up, any vehicle without a pose for ``--pose-gap`` s
   (default 30 s: more than a dropout plus its rediscovery), or a link's message counter
-  that stops increasing, or the relay exits.
+  that stops increasing, or the relay exits;
+* any message is lost. At the end the relay is stopped first and its ``totals:`` log line
+  read: Events that never arrived from a vehicle (gaps in their sequence numbers), link
+  queue drops and publish/send errors must all be 0 (refused malformed input is counted
+  apart), and every ``GlobalPose`` the relay published must have reached the operator,
+  whose reader keeps 64 samples per vehicle so that none overwrites another.
 
 Usage::
 
@@ -32,6 +37,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import contextlib
+import json
 import os
 import signal
 import subprocess
@@ -138,6 +144,40 @@ def proc_figures(pid: int) -> dict[str, int]:
     return out
 
 
+def read_totals(log: Path) -> dict[str, int]:
+    """The last ``totals:`` line the relay logged (a JSON object)."""
+    totals: dict[str, int] = {}
+    for line in log.read_text(errors="replace").splitlines():
+        if "totals: " in line:
+            totals = json.loads(line.split("totals: ", 1)[1])
+    return totals
+
+
+#: link drops that are refused input (the simulator's garbage), not messages lost
+REFUSED = ("malformed", "undecodable", "not for us")
+
+
+def lost_messages(totals: dict[str, int], poses_received: int) -> list[tuple[str, int, str]]:
+    """(where, how many lost, what was counted) from the relay's totals and the poses the
+    operator received."""
+    gaps = totals.get("events missed", 0)
+    events = totals.get("events received", 0)
+    dropped = {k: v for k, v in totals.items()
+               if " dropped: " in k and not k.split(" dropped: ", 1)[1].startswith(REFUSED)}
+    refused = sum(v for k, v in totals.items() if " dropped: " in k) - sum(dropped.values())
+    errors = sum(totals.get(k, 0) for k in ("publish errors", "send errors", "encode errors",
+                                             "delivery failed"))
+    published = totals.get("published GlobalPose", 0)
+    return [
+        ("vehicles -> relay (Event gaps)", gaps, f"{events} Events received"),
+        ("in the relay (queues, errors)", sum(dropped.values()) + errors,
+         ", ".join(f"{k} {v}" for k, v in dropped.items())
+         or f"no queue drops; {refused} malformed inputs refused"),
+        ("relay -> operator (GlobalPose)", max(0, published - poses_received),
+         f"{published} published, {poses_received} received"),
+    ]
+
+
 def slope_per_minute(points: list[tuple[float, float]]) -> float:
     """Least-squares slope of ``(seconds, value)`` points, per minute."""
     n = len(points)
@@ -159,7 +199,8 @@ class Operator:
 
         self.bridge = DdsBridge(domain, (partition,))
         self.bridge.open_writers(["ControlRequest", "WrenchEffortCommand"])
-        self.poses = self.bridge.reader("GlobalPose")
+        # deep enough that no pose overwrites another between two polls: every one is counted
+        self.poses = self.bridge.reader("GlobalPose", depth=64)
         self.status = self.bridge.reader("VehicleStatus")
         self.links = self.bridge.reader("LinkStatus")
         self.control = self.bridge.reader("ControlStatus")
@@ -295,7 +336,16 @@ async def soak(args: argparse.Namespace) -> int:
         driver.cancel()
         with contextlib.suppress(asyncio.CancelledError):
             await driver
-        op.poll()
+        # stop the relay first: its totals are then final, and every pose it published has
+        # had time to arrive before the operator's count is compared with them
+        if relay.poll() is None:
+            relay.send_signal(signal.SIGINT)
+            await asyncio.to_thread(relay.wait, 20)
+        for _ in range(8):
+            await asyncio.sleep(0.25)
+            op.poll()
+        relay_log.flush()
+        totals = read_totals(workdir / "relay.log")
         expected = UDP_VEHICLES + SERIAL_VEHICLES
         seen = len(op.pose_count)
         growth = slope_per_minute(rss)
@@ -314,6 +364,15 @@ async def soak(args: argparse.Namespace) -> int:
             drops = {d["traffic_class"]: d["count"] for d in sample.get("drops", [])}
             print(f"  link {name}: in {sample['messages_in']} out {sample['messages_out']} "
                   f"queue {sample['queue_depth']} drops {drops or 'none'}")
+        lost = lost_messages(totals, sum(op.pose_count.values()))
+        print("  messages lost")
+        for what, count, detail in lost:
+            print(f"    {what:<36} {count:>6}   {detail}")
+        for what, count, _ in lost:
+            if count:
+                failures.append(f"{count} messages lost {what}")
+        if not totals:
+            failures.append("the relay logged no totals when it stopped")
         if seen < expected:
             failures.append(f"only {seen} of {expected} vehicles published poses")
         for vid, gap in sorted(worst_gap.items()):

@@ -19,6 +19,7 @@ raised; a failing link is reported and the relay keeps running.
 from __future__ import annotations
 
 import asyncio
+import json
 import logging
 import time
 from collections import Counter
@@ -44,6 +45,8 @@ log = logging.getLogger(__name__)
 
 #: how often LinkStatus samples are published (seconds)
 LINK_STATUS_PERIOD = 1.0
+#: seconds between two ``totals:`` log lines
+TOTALS_PERIOD = 600.0
 #: at most this many log lines per reason and minute for bad input from the network
 _LOG_BURST = 5
 
@@ -92,6 +95,8 @@ class Runtime:
         self.engine: Engine | None = None
         self.links: dict[str, Link] = {}
         self.counters: Counter[str] = Counter()
+        #: DDS samples published, per topic
+        self.published: Counter[str] = Counter()
         self._publisher_factory = publisher_factory
         self.publisher: Any = None
         self._mirror = mirror
@@ -284,6 +289,7 @@ class Runtime:
             self.publisher = None
         if self._mirror is not None:
             self._mirror.close()
+        self.log_totals()
         log.info("stopped")
 
     # -- inputs ------------------------------------------------------------------------------
@@ -398,6 +404,29 @@ class Runtime:
         except (EdgeVisError, ValueError, KeyError, TypeError) as exc:
             self.counters["publish errors"] += 1
             log.error("cannot publish %s: %s", topic, exc)
+            return
+        self.published[topic] += 1
+
+    def totals(self) -> dict[str, int]:
+        """Every count since start, flat and sorted: the relay's, the engine's, each link's
+        traffic and drops, and the samples published per topic (logged every
+        :data:`TOTALS_PERIOD` and on stop, so a journal shows where messages went)."""
+        out: Counter[str] = Counter(self.counters)
+        if self.engine is not None:
+            out.update({k.replace("_", " "): v for k, v in self.engine.counters.items()})
+        for sample in self.link_status():
+            name = sample["link"]
+            for key in ("messages_in", "messages_out"):
+                out[f"link {name} {key.replace('_', ' ')}"] = int(sample[key])
+            for drop in sample["drops"]:
+                out[f"link {name} dropped: {drop['traffic_class']}"] = int(drop["count"])
+        for topic, count in self.published.items():
+            out[f"published {topic}"] = count
+        return dict(sorted(out.items()))
+
+    def log_totals(self) -> None:
+        """One log line with :meth:`totals` as a JSON object (drop reasons hold commas)."""
+        log.info("totals: %s", json.dumps(self.totals()))
 
     def _rearm(self, now: float) -> None:
         assert self._loop is not None
@@ -458,9 +487,13 @@ class Runtime:
 
     async def _publish_link_status(self) -> None:
         previous: dict[str, tuple[float, int]] = {}
+        next_totals = time.monotonic() + TOTALS_PERIOD
         while True:
             await asyncio.sleep(LINK_STATUS_PERIOD)
             now = time.monotonic()
+            if now >= next_totals:
+                next_totals = now + TOTALS_PERIOD
+                self.log_totals()
             for sample in self.link_status():
                 total = sample["bytes_in"] + sample["bytes_out"]
                 then, before = previous.get(sample["link"], (now, total))

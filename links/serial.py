@@ -68,6 +68,8 @@ class SerialLink(Link):
         self.pace = self.bool_option("pace", True)
         self.reopen_interval = _float_option(self, "reopen", 0.25)
         self.frame_timeout = _float_option(self, "frame_timeout", 1.0)
+        # reused for every read (see links.udp: a fresh 64 KiB per read fragments the heap)
+        self._buffer = memoryview(bytearray(_READ_SIZE))
         if self.bandwidth_bps is None:
             self.bandwidth_bps = self.baud * 8 / 10
         self.bytes_per_second = self.baud / 10
@@ -160,17 +162,17 @@ class SerialLink(Link):
         if fd is None:
             return
         try:
-            data = os.read(fd, _READ_SIZE)
+            size = os.readv(fd, [self._buffer])
         except BlockingIOError:
             return
         except OSError as exc:
             self._lost(f"read {self.path}: {exc.strerror or exc}")
             return
-        if not data:
+        if not size:
             self._lost(f"{self.path}: end of file (device gone)")
             return
         assert self._loop is not None
-        self._consume(data, self._loop.time())
+        self._consume(self._buffer[:size].tobytes(), self._loop.time())
 
     def _consume(self, data: bytes, now: float) -> None:
         path = self.path

@@ -52,6 +52,8 @@ MAX_WRITE_BUFFER = 1 << 20
 READ_BATCH = 64
 #: peers remembered for ``broadcast=learned``
 MAX_LEARNED = 256
+#: the largest UDP payload: the receive buffer every datagram is read into
+MAX_DATAGRAM = 65535
 
 
 class UdpLink(Link):
@@ -108,6 +110,10 @@ class UdpLink(Link):
         self._backlog: deque[tuple[bytes, Peer, int]] = deque()
         self._backlog_bytes = 0
         self._learned: OrderedDict[Peer, None] = OrderedDict()
+        # one receive buffer, reused: ``recvfrom(65535)`` would allocate 64 KiB per datagram
+        # and shrink it, and the shrunk datagrams that stay alive fragment the C heap (the
+        # relay's resident memory then creeps up for hours)
+        self._buffer = memoryview(bytearray(MAX_DATAGRAM))
         self.local_address: tuple[str, int] | None = None
 
     # -- life cycle ------------------------------------------------------------------
@@ -254,6 +260,7 @@ class UdpLink(Link):
         handles a burst in one pass and sends one batch per destination.
         """
         sock = self._sock
+        buffer = self._buffer
         batch: list[Packet] = []
         batch_peer: tuple[str, int] | None = None
         batch_bytes = 0
@@ -261,13 +268,14 @@ class UdpLink(Link):
             if sock is None or self._sock is None:
                 break
             try:
-                data, addr = sock.recvfrom(65535)
+                size, addr = sock.recvfrom_into(buffer)
             except BlockingIOError:
                 break
             except OSError as exc:  # e.g. ICMP errors surfacing on the socket: keep going
                 self.counters.dropped("receive error")
                 self.counters.last_error = str(exc)
                 continue
+            data = buffer[:size].tobytes()
             try:
                 packets = unpack_datagram(data)
             except DecodeError as exc:

@@ -26,6 +26,7 @@ from edge_vis.config import (
 )
 from edge_vis.errors import ConfigError
 from edge_vis.jaus.address import JausAddress
+from edge_vis.memory import tune_allocator
 from edge_vis.mirror import Mirror
 from edge_vis.runtime import Runtime
 from edge_vis.service import Supervisor
@@ -82,6 +83,7 @@ def _mirror(args: argparse.Namespace) -> Mirror | None:
 
 def run(args: argparse.Namespace) -> int:
     """Run until a signal (or ``--duration``)."""
+    tune_allocator()  # before the relay allocates: days of running must not grow the heap
     profile = build_profile(args)
     runtime = Runtime(profile, publisher_factory=None if args.no_dds else "dds",
                       mirror=_mirror(args))

@@ -48,6 +48,7 @@ from cyclonedds.core import (
 )
 from cyclonedds.domain import Domain, DomainParticipant
 from cyclonedds.pub import DataWriter, Publisher
+from cyclonedds.qos import Policy, Qos
 from cyclonedds.sub import DataReader, Subscriber
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
@@ -362,10 +363,14 @@ class DdsBridge:
         self.counters["received"] += len(out)
         return out
 
-    def reader(self, topic: str) -> TopicReader:
-        """A :class:`TopicReader` of ``topic`` with the topic's QoS (for tools and tests)."""
+    def reader(self, topic: str, *, depth: int | None = None) -> TopicReader:
+        """A :class:`TopicReader` of ``topic`` with the topic's QoS (for tools and tests).
+
+        ``depth`` keeps that many samples per instance instead of the topic's history: a
+        reader that counts telemetry must not let one sample overwrite the last.
+        """
         self._check_open()
-        reader = TopicReader(self, self.registry.get(topic))
+        reader = TopicReader(self, self.registry.get(topic), depth=depth)
         self._readers.append(reader)
         return reader
 
@@ -471,10 +476,12 @@ class TopicReader:
     (with keep-last-1 topics: the latest sample of every instance).
     """
 
-    def __init__(self, bridge: DdsBridge, spec: TopicSpec) -> None:
+    def __init__(self, bridge: DdsBridge, spec: TopicSpec, *, depth: int | None = None) -> None:
         self.spec = spec
         self.converter = converter_for(spec.type)
         qos = topic_qos(spec.kind, bridge.qos_settings)
+        if depth is not None:
+            qos = Qos(Policy.History.KeepLast(depth), base=qos)
         topic = bridge._topic(spec.name)
         self._reader: DataReader[Any] = DataReader(bridge._subscriber, topic, qos=qos)
         self._condition = ReadCondition(self._reader, _ANY_SAMPLE)

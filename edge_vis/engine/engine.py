@@ -93,6 +93,7 @@ class SubscriptionView:
     event_id: int | None
     events_received: int
     reason: str
+    events_missed: int = 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -291,7 +292,7 @@ class Engine:
         for v in self.vehicles.values():
             subs = tuple(
                 SubscriptionView(s.provider, s.report, s.state.value, s.rate, s.event_id,
-                                 s.events_received, s.reason)
+                                 s.events_received, s.reason, s.events_missed)
                 for s in v.subscriptions.values()
             )
             controls = {a: c.state.value for a, c in v.controls.items()}
@@ -768,7 +769,9 @@ class Engine:
         event_id = int(pick(fields, "event_id", -1))
         for sub in vehicle.subscriptions.values():
             if sub.provider == source and sub.matches_event(event_id, name):
-                sub.on_event(int(pick(fields, "sequence_number", 0)), now)
+                missed = sub.on_event(int(pick(fields, "sequence_number", 0)), now)
+                if missed:
+                    self.counters["events_missed"] += missed
                 break
         else:
             # data is data: deliver it, but count it (another client's event, or a burst

@@ -120,6 +120,8 @@ class Subscription:
         self.deadline: float | None = None
         self.refresh_period: float = profile.default_refresh
         self.events_received = 0
+        #: Events the provider numbered but that never arrived (gaps in sequence numbers)
+        self.events_missed = 0
         self.last_sequence: int | None = None
         self.last_event: float | None = None
         self.reason = ""
@@ -174,6 +176,8 @@ class Subscription:
             return []
         first = self.state is not SubscriptionState.ACTIVE
         self.state = SubscriptionState.ACTIVE
+        # a new or re-created event may number from anywhere: count gaps from the next one
+        self.last_sequence = None
         self.event_id = event_id
         self.confirmed_rate = rate
         self.attempts = 0
@@ -198,14 +202,26 @@ class Subscription:
         self.reason = f"event rejected (response code {code})"
         return self._start_polling(now)
 
-    def on_event(self, sequence: int, now: float) -> None:
-        """An Event of this subscription arrived (bursts and repeats are harmless)."""
+    def on_event(self, sequence: int, now: float) -> int:
+        """An Event of this subscription arrived (bursts and repeats are harmless).
+
+        Returns how many Events its 8-bit sequence number says were lost on the way: a
+        jump forward by less than half the number space (a repeat or a late duplicate is
+        not a loss).
+        """
+        missed = 0
+        last = self.last_sequence
+        step = 1 if last is None else (sequence - last) & 0xFF
+        if 0 < step < 0x80:  # forward (0: a repeat; 0x80 and more: an older one, late)
+            missed = step - 1
+            self.last_sequence = sequence
+        self.events_missed += missed
         self.events_received += 1
-        self.last_sequence = sequence
         self.last_event = now
         self.stale_count = 0
         if self.stale_deadline is not None:
             self.stale_deadline = now + self._stale_after()
+        return missed
 
     def set_event_timeout(self, minutes: int, now: float) -> None:
         """ReportEventTimeout from the provider: refresh at half of it (0 = never)."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
+import json
 import time
 from collections.abc import Awaitable, Callable
 
@@ -146,3 +147,28 @@ def test_mirror_writes_every_datagram_to_a_pcap(tmp_path) -> None:
     # both directions are in the capture: the relay's queries and the vehicle's answers
     assert "QueryIdentification" in names and "ReportIdentification" in names
     assert "QueryServices" in names and "ReportServices" in names
+
+
+def test_totals_account_for_every_pose_the_operator_received(
+    domain_id: int, partition: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    """The ``totals:`` line a stopping relay logs matches what an operator counted."""
+    counted: list[dict] = []
+
+    async def body(runtime: Runtime, peer: JausPeer, operator: dds.DdsBridge) -> None:
+        poses = operator.reader("GlobalPose", depth=64)
+        while len(counted) < 10:
+            counted.extend(await asyncio.to_thread(poses.take, 1.0))
+        with caplog.at_level("INFO", logger="edge_vis.runtime"):
+            await runtime.stop()
+        counted.extend(await asyncio.to_thread(poses.take, 0.5))
+        published = runtime.published["GlobalPose"]
+        assert published == len(counted)
+        assert runtime.totals()["published GlobalPose"] == published
+        line = next(r.getMessage() for r in caplog.records if "totals: " in r.getMessage())
+        logged = json.loads(line.split("totals: ", 1)[1])
+        assert logged["published GlobalPose"] == published
+        assert logged["events received"] > 0  # the peer sends its poses as Events
+        assert "events missed" not in logged  # loopback: no Event went missing
+
+    asyncio.run(with_relay(domain_id, partition, confirm_events=True, body=body))

@@ -187,6 +187,20 @@ def test_jauspp_event_id_reuse_and_burst(catalogue: Any) -> None:
     assert h.engine.counters["events_unmatched"] == 0
 
 
+def test_gaps_in_event_sequence_numbers_are_counted_as_missed(catalogue: Any) -> None:
+    """A link that loses Events shows up as missed Events; repeats and wrap-around do not."""
+    h = Harness(catalogue)
+    discover(h)
+    pose = catalogue.encode("ReportGlobalPose", {"latitude": 28.5, "yaw": 0.5})
+    for seq in (250, 251, 251, 254, 255, 0, 3, 2):  # 2 lost, a repeat, wrap, 2 lost, one late
+        h.deliver(ROBOT, "Event", {"event_id": 0, "sequence_number": seq,
+                                   "report_message": pose})
+    subs = {s.report: s for s in h.engine.snapshot().vehicles[0].subscriptions}
+    assert subs["ReportGlobalPose"].events_received == 8
+    assert subs["ReportGlobalPose"].events_missed == 4
+    assert h.engine.counters["events_missed"] == 4
+
+
 def test_the_captured_jauspp_event_bytes_are_unwrapped(catalogue: Any) -> None:
     h = Harness(catalogue)
     discover(h)
