@@ -17,7 +17,10 @@ Every ``--sample`` seconds the relay's resident memory, open file descriptors an
 * resident memory keeps growing: a least-squares slope over the samples after warm-up
   (the first 2 minutes, or the first third of a shorter run) above ``--max-growth``
   KiB per minute (default 256 KiB/min, i.e. 15 MiB/hour: a per-message leak at these
-  rates shows up as several MiB per minute), or file descriptors or threads grow;
+  rates shows up as several MiB per minute), or a slope over the second half of those
+  samples above ``--max-late-growth`` (default 64 KiB/min: caches may still fill after
+  warm-up, but a relay whose memory is still rising at the end would not last days);
+  or file descriptors or threads grow;
 * counts go missing: after warm-up, any vehicle without a pose for ``--pose-gap`` s
   (default 30 s: more than a dropout plus its rediscovery), or a link's message counter
   that stops increasing, or the relay exits;
@@ -293,6 +296,7 @@ async def soak(args: argparse.Namespace) -> int:
         warmup = min(120.0, args.minutes * 60.0 / 3)
         driver = asyncio.create_task(operate(op, stop_at))
         rss: list[tuple[float, float]] = []
+        rss_all: list[tuple[float, float]] = []
         fds: list[tuple[float, float]] = []
         threads: list[tuple[float, float]] = []
         worst_gap: dict[str, float] = defaultdict(float)
@@ -322,6 +326,7 @@ async def soak(args: argparse.Namespace) -> int:
             print(f"{t:6.0f} {fig['rss_kib'] / 1024:8.1f} {fig['fds']:4d} {fig['threads']:4d} "
                   f"{online:6d} {sum(op.pose_count.values()):7d} {queue:6d} {msgs_in:9d} "
                   f"{msgs_out:9d}", flush=True)
+            rss_all.append((t, fig["rss_kib"]))
             if t >= warmup:
                 rss.append((t, fig["rss_kib"]))
                 fds.append((t, fig["fds"]))
@@ -349,6 +354,7 @@ async def soak(args: argparse.Namespace) -> int:
         expected = UDP_VEHICLES + SERIAL_VEHICLES
         seen = len(op.pose_count)
         growth = slope_per_minute(rss)
+        late_growth = slope_per_minute(rss[len(rss) // 2:])
         fd_growth = (fds[-1][1] - fds[0][1]) if len(fds) > 1 else 0
         thread_growth = (threads[-1][1] - threads[0][1]) if len(threads) > 1 else 0
         print("\nsummary")
@@ -358,7 +364,10 @@ async def soak(args: argparse.Namespace) -> int:
         print(f"  worst pose gap after warm-up  {max(worst_gap.values(), default=0):.1f} s")
         print(f"  rss after warm-up        {rss[0][1] / 1024:.1f} -> {rss[-1][1] / 1024:.1f} MiB"
               if rss else "  rss: no samples after warm-up")
-        print(f"  rss slope                {growth:+.1f} KiB/min (limit {args.max_growth:g})")
+        print(f"  rss slope                {growth:+.1f} KiB/min (limit {args.max_growth:g}), "
+              f"second half {late_growth:+.1f} KiB/min (limit {args.max_late_growth:g})")
+        print("  rss each minute (MiB)    " + " ".join(
+            f"{kib / 1024:.1f}" for t, kib in rss_all if int(t) % 60 < args.sample))
         print(f"  fds change {fd_growth:+.0f}, threads change {thread_growth:+.0f}")
         for name, sample in sorted(op.link_last.items()):
             drops = {d["traffic_class"]: d["count"] for d in sample.get("drops", [])}
@@ -380,6 +389,9 @@ async def soak(args: argparse.Namespace) -> int:
                 failures.append(f"{vid}: no pose for {gap:.0f} s")
         if growth > args.max_growth:
             failures.append(f"memory grows {growth:.0f} KiB/min (limit {args.max_growth:g})")
+        if late_growth > args.max_late_growth:
+            failures.append(f"memory still grows {late_growth:.0f} KiB/min at the end "
+                            f"(limit {args.max_late_growth:g})")
         if fd_growth > 2:
             failures.append(f"open file descriptors grew by {fd_growth:.0f}")
         if thread_growth > 2:
@@ -413,6 +425,8 @@ def main() -> int:
     parser.add_argument("--domain", type=int, default=197, help="DDS domain id")
     parser.add_argument("--max-growth", type=float, default=256.0,
                         help="KiB per minute of resident-memory growth that fails the run")
+    parser.add_argument("--max-late-growth", type=float, default=64.0,
+                        help="the same over the second half of the samples after warm-up")
     parser.add_argument("--pose-gap", type=float, default=30.0,
                         help="seconds without a vehicle's pose that fail the run")
     args = parser.parse_args()
