@@ -42,6 +42,11 @@ RELAY_ID = JausAddress(200, 1, 1)
 SUBSYSTEM = 121
 OPERATOR = "op-faults"
 
+#: relay counters that mean something accepted was lost
+RELAY_ERRORS = ("publish errors", "send errors", "encode errors")
+#: link drop reasons for input refused on arrival (garbage on the wire), not losses
+REFUSED_INPUT = ("malformed",)
+
 _ips = itertools.cycle(range(150, 190))  # 190-199: tests/test_limits.py, test_security.py
 
 
@@ -450,6 +455,14 @@ class Rig:
     def commands_ignored(self) -> int:
         """Commands the vehicle got from a sender that did not hold control: must stay 0."""
         return self.sim.counters["commands_ignored"]
+
+    def relay_losses(self) -> dict[str, int]:
+        """Counts of what the relay accepted and then lost (link queue drops, publish,
+        send and encode errors); refused malformed input is not among them."""
+        assert self.runtime is not None
+        return {k: v for k, v in self.runtime.totals().items()
+                if v and (k in RELAY_ERRORS or (" dropped: " in k and not k.split(
+                    " dropped: ", 1)[1].startswith(REFUSED_INPUT)))}
 
     def healthy(self, since: float) -> bool:
         """Rediscovered, events on both sides, control on both sides, poses flowing,

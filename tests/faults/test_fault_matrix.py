@@ -27,16 +27,28 @@ pytestmark = [pytest.mark.dds]
 MEDIA = [pytest.param("udp"), pytest.param("serial", marks=pytest.mark.serial)]
 
 
-def run(rig: Rig, body: Callable[[], Awaitable[None]], *, operator: bool = True,
-        timeout: float = 25.0) -> None:
+def run(rig: Rig, body: Callable[[], Awaitable[None]], result: FaultResult, *,
+        operator: bool = True, timeout: float = 25.0) -> None:
     async def main() -> None:
         try:
             await rig.start(operator=operator)
             await asyncio.wait_for(body(), timeout)
+            nothing_accepted_lost(rig, result)
         finally:
             await rig.stop()
 
     asyncio.run(main())
+
+
+def nothing_accepted_lost(rig: Rig, result: FaultResult) -> None:
+    """What the relay took in, it passed on: no queue drops, no publish or send errors.
+    Events the wire lost are the wire's (shown as gaps), refused garbage is not a loss."""
+    assert rig.runtime is not None
+    losses = rig.relay_losses()
+    assert not losses, f"the relay lost what it had accepted: {losses}"
+    gaps = rig.runtime.totals().get("events missed", 0)
+    result.checks.append("0 accepted lost" + (f" ({gaps} Event gaps on the wire)"
+                                               if gaps else ""))
 
 
 async def establish(rig: Rig) -> None:
@@ -113,7 +125,7 @@ def test_impaired_link(medium: str, kind: str, settings: dict[str, float], domai
         else:
             no_command_without_control(rig, fault_record)
 
-    run(rig, body)
+    run(rig, body, fault_record)
 
 
 @pytest.mark.parametrize("medium", MEDIA)
@@ -140,7 +152,7 @@ def test_link_down_1s(medium: str, domain_id: int, partition: str,
 
     rig.profile_overrides = {"discovery": {"period": 0.5, "liveness_period": 0.5,
                                            "lost_after": 3, "response_timeout": 0.5}}
-    run(rig, body)
+    run(rig, body, fault_record)
 
 
 @pytest.mark.parametrize("medium", MEDIA)
@@ -164,7 +176,7 @@ def test_link_down_30s_scaled(medium: str, domain_id: int, partition: str,
         await recover(rig, fault_record, end)
         no_command_without_control(rig, fault_record)
 
-    run(rig, body)
+    run(rig, body, fault_record)
 
 
 @pytest.mark.parametrize("medium", MEDIA)
@@ -184,7 +196,7 @@ def test_vehicle_reboot(medium: str, domain_id: int, partition: str,
         fault_record.checks.append("seq restarted")
         no_command_without_control(rig, fault_record)
 
-    run(rig, body)
+    run(rig, body, fault_record)
 
 
 @pytest.mark.parametrize("medium", MEDIA)
@@ -211,7 +223,7 @@ def test_relay_restart(medium: str, domain_id: int, partition: str,
         fault_record.checks.append(f"events on vehicle {events_before}->{events_after}")
         no_command_without_control(rig, fault_record)
 
-    run(rig, body)
+    run(rig, body, fault_record)
 
 
 @pytest.mark.parametrize("medium", MEDIA)
@@ -262,7 +274,7 @@ def test_malformed_flood_10x(medium: str, domain_id: int, partition: str,
         await recover(rig, fault_record, end)
         no_command_without_control(rig, fault_record)
 
-    run(rig, body)
+    run(rig, body, fault_record)
 
 
 # -- the DDS side ---------------------------------------------------------------------------
@@ -297,7 +309,7 @@ def test_operator_joins_late(domain_id: int, partition: str,
         fault_record.checks.append("commands")
         no_command_without_control(rig, fault_record)
 
-    run(rig, body, operator=False)
+    run(rig, body, fault_record, operator=False)
 
 
 def test_operator_leaves_abruptly(domain_id: int, partition: str,
@@ -331,7 +343,7 @@ def test_operator_leaves_abruptly(domain_id: int, partition: str,
         finally:
             other.close()
 
-    run(rig, body)
+    run(rig, body, fault_record)
 
 
 def test_operator_vanishes_mid_drive(domain_id: int, partition: str,
@@ -354,4 +366,4 @@ def test_operator_vanishes_mid_drive(domain_id: int, partition: str,
         fault_record.checks.append("control kept")
         no_command_without_control(rig, fault_record)
 
-    run(rig, body)
+    run(rig, body, fault_record)
