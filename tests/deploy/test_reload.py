@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 from deploykit import NotifyListener, Relay, relay_env
-from e2e.jaus_peer import JausPeer
+from e2e.peer_sets import SetPeer, pose_peer
 
 from edge_vis.config import LinkProfile, RelayProfile, from_mapping
 from edge_vis.jaus.address import JausAddress
@@ -87,7 +87,7 @@ def test_same_profile_means_no_changes() -> None:
 # -- a running relay and a real UDP vehicle -----------------------------------------------
 
 
-async def _count(peer: JausPeer, name: str, seconds: float) -> int:
+async def _count(peer: SetPeer, name: str, seconds: float) -> int:
     start = len(peer.names(name))
     await asyncio.sleep(seconds)
     return len(peer.names(name)) - start
@@ -109,7 +109,7 @@ def test_sighup_applies_new_timing_without_dropping_the_vehicle(
 
     async def main() -> None:
         loop = asyncio.get_running_loop()
-        peer = JausPeer(PEER_ID, "ReloadBot")
+        peer = pose_peer(PEER_ID, "ReloadBot")
         await loop.create_datagram_endpoint(lambda: peer, local_addr=(PEER_IP, 3794))
         relay = Relay(["run", "--no-dds", "--profile", str(profile)], tmp_path / "relay.log",
                       relay_env(NOTIFY_SOCKET=notify_socket.path, WATCHDOG_USEC="2000000"))

@@ -1,12 +1,14 @@
-"""A scriptable JAUS vehicle on a real UDP socket for end-to-end tests of the translators.
+"""A scriptable JAUS vehicle on a real UDP socket for end-to-end tests.
 
 Written independently of the engine: it answers discovery (or stays silent and sends a
-vendor hello instead), access control, management and liveness like
-:mod:`tests.e2e.jaus_peer`, and for the service sets under test it answers every query
-named in ``reports`` - directly, or as Event messages at the confirmed rate once the relay
-created an event. A report larger than ``mtu`` goes out as an AS5669A large data set
+vendor hello instead), access control, management and liveness, and for the service sets
+under test it answers every query named in ``reports`` - directly, or as Event messages at
+the confirmed rate once the relay created an event (each event numbering its own Events),
+or, with ``confirm_events=False``, never confirming an event, like the JAUS Toolset's
+example component. A report larger than ``mtu`` goes out as an AS5669A large data set
 (FIRST/MIDDLE/LAST fragments). ``on_command`` scripts answers to commands (a
-ConfirmElementRequest for a SetElement). Everything received is recorded.
+ConfirmElementRequest for a SetElement). Everything received is recorded with its source
+and arrival time. :func:`pose_peer` is the plain vehicle most relay tests need.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ class Received:
     at: float
     name: str | None
     fields: dict[str, Any]
+    source: JausAddress | None = None
 
 
 class SetPeer(asyncio.DatagramProtocol):
@@ -48,7 +51,7 @@ class SetPeer(asyncio.DatagramProtocol):
     def __init__(self, address: JausAddress, services: tuple[str, ...],
                  reports: dict[str, Report], *, name: str = "SetBot",
                  catalogue: Catalogue | None = None, mtu: int = 1400,
-                 discoverable: bool = True,
+                 discoverable: bool = True, confirm_events: bool = True,
                  on_command: dict[str, Replies] | None = None) -> None:
         self.address = address
         self.services = CORE + services
@@ -57,6 +60,7 @@ class SetPeer(asyncio.DatagramProtocol):
         self.catalogue = catalogue or default_catalogue()
         self.mtu = mtu
         self.discoverable = discoverable
+        self.confirm_events = confirm_events
         self.on_command = on_command or {}
         self.received: list[Received] = []
         self.transport: asyncio.DatagramTransport | None = None
@@ -79,7 +83,8 @@ class SetPeer(asyncio.DatagramProtocol):
                 continue
             message = self.catalogue.decode(packet.payload)
             fields = message.fields or {}
-            self.received.append(Received(time.monotonic(), message.name, fields))
+            self.received.append(Received(time.monotonic(), message.name, fields,
+                                          packet.source))
             if packet.destination.matches(self.address):
                 self.handle(packet.source, message.name, fields)
 
@@ -154,6 +159,8 @@ class SetPeer(asyncio.DatagramProtocol):
             reply("ReportStatus", {"status": self.status, "reserved": 0})
         elif name == "QueryHeartbeatPulse":
             reply("ReportHeartbeatPulse")
+        elif name == "CreateEvent" and not self.confirm_events:
+            return  # neither confirmed nor rejected: the relay must fall back to polling
         elif name == "CreateEvent":
             query = self.catalogue.decode(fields["query_message"])
             if query.name not in self.reports:
@@ -178,7 +185,7 @@ class SetPeer(asyncio.DatagramProtocol):
                 reply(*answer)
 
     async def _event_loop(self) -> None:
-        sequence = 0
+        sequences: dict[int, int] = {}  # per event, as the Events service numbers them
         due: dict[int, float] = {}
         while True:
             await asyncio.sleep(0.05)
@@ -189,8 +196,21 @@ class SetPeer(asyncio.DatagramProtocol):
                 due[event_id] = now + 1.0 / min(max(rate, 0.5), 10.0)
                 name, report = self.reports[query](fields)
                 inner = self.catalogue.encode(name, report)
+                sequence = sequences.get(event_id, 0)
                 self.send_payload(dest, self.catalogue.wrap_event(event_id, sequence, inner))
-                sequence = (sequence + 1) % 256
+                sequences[event_id] = (sequence + 1) % 256
 
     def names(self, name: str) -> list[Received]:
         return [r for r in self.received if r.name == name]
+
+
+MOBILITY = ("urn:jaus:jss:mobility:GlobalPoseSensor", "urn:jaus:jss:mobility:PrimitiveDriver")
+#: where :func:`pose_peer` says it is
+POSE = {"latitude": 28.5, "longitude": -81.25, "altitude": 12.5, "yaw": 0.25}
+
+
+def pose_peer(address: JausAddress, name: str = "TestBot", *,
+              confirm_events: bool = True) -> SetPeer:
+    """A vehicle with a global pose sensor and a primitive driver that reports :data:`POSE`."""
+    return SetPeer(address, MOBILITY, {"QueryGlobalPose": lambda f: ("ReportGlobalPose", POSE)},
+                   name=name, confirm_events=confirm_events)

@@ -14,7 +14,7 @@ from edge_vis.config import LinkProfile, load_default_profile
 from edge_vis.jaus.address import JausAddress
 from edge_vis.runtime import Runtime
 
-from .jaus_peer import JausPeer
+from .peer_sets import SetPeer, pose_peer
 
 pytestmark = pytest.mark.dds
 
@@ -33,9 +33,9 @@ async def wait_for(check: Callable[[], bool], timeout: float, what: str) -> None
 
 
 async def with_relay(domain: int, partition: str, *, confirm_events: bool,
-                     body: Callable[[Runtime, JausPeer, dds.DdsBridge], Awaitable[None]]) -> None:
+                     body: Callable[[Runtime, SetPeer, dds.DdsBridge], Awaitable[None]]) -> None:
     loop = asyncio.get_running_loop()
-    peer = JausPeer(PEER_ID, confirm_events=confirm_events)
+    peer = pose_peer(PEER_ID, confirm_events=confirm_events)
     await loop.create_datagram_endpoint(lambda: peer, local_addr=(PEER_IP, 3794))
     base = load_default_profile()
     profile = dataclasses.replace(
@@ -61,7 +61,7 @@ async def with_relay(domain: int, partition: str, *, confirm_events: bool,
 def test_pose_reaches_dds_and_commands_need_control(
     domain_id: int, partition: str
 ) -> None:
-    async def body(runtime: Runtime, peer: JausPeer, operator: dds.DdsBridge) -> None:
+    async def body(runtime: Runtime, peer: SetPeer, operator: dds.DdsBridge) -> None:
         poses = operator.reader("GlobalPose")
         idents = operator.reader("VehicleIdentification")
         got = await asyncio.to_thread(poses.collect, 1, 10.0)
@@ -107,7 +107,7 @@ def test_pose_reaches_dds_and_commands_need_control(
 
 
 def test_vehicle_ignoring_events_is_polled(domain_id: int, partition: str) -> None:
-    async def body(runtime: Runtime, peer: JausPeer, operator: dds.DdsBridge) -> None:
+    async def body(runtime: Runtime, peer: SetPeer, operator: dds.DdsBridge) -> None:
         poses = operator.reader("GlobalPose")
         got = await asyncio.to_thread(poses.collect, 3, 15.0)
         assert len(got) >= 3
@@ -127,7 +127,7 @@ def test_mirror_writes_every_datagram_to_a_pcap(tmp_path) -> None:
 
     async def main() -> None:
         loop = asyncio.get_running_loop()
-        peer = JausPeer(JausAddress(78, 1, 1), "MirrorBot")
+        peer = pose_peer(JausAddress(78, 1, 1), "MirrorBot")
         await loop.create_datagram_endpoint(lambda: peer, local_addr=("127.0.0.34", 3794))
         base = load_default_profile()
         profile = dataclasses.replace(
@@ -155,7 +155,7 @@ def test_totals_account_for_every_pose_the_operator_received(
     """The ``totals:`` line a stopping relay logs matches what an operator counted."""
     counted: list[dict] = []
 
-    async def body(runtime: Runtime, peer: JausPeer, operator: dds.DdsBridge) -> None:
+    async def body(runtime: Runtime, peer: SetPeer, operator: dds.DdsBridge) -> None:
         poses = operator.reader("GlobalPose", depth=64)
         while len(counted) < 10:
             counted.extend(await asyncio.to_thread(poses.take, 1.0))
