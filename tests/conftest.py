@@ -1,4 +1,5 @@
-"""Fixtures shared by every test folder: real Cyclone DDS participants on loopback.
+"""Fixtures shared by every test folder: real Cyclone DDS participants on loopback, and
+the root logger put back after every test.
 
 Cyclone is configured for loopback only (``edge_vis.dds.loopback_config``: interface
 127.0.0.1, no multicast, unicast discovery to 127.0.0.1) through ``CYCLONEDDS_URI``, set
@@ -10,6 +11,7 @@ other's samples.
 from __future__ import annotations
 
 import itertools
+import logging
 import os
 import uuid
 from collections.abc import Callable, Iterator
@@ -38,6 +40,18 @@ def loopback_cyclone() -> Iterator[str]:
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("CYCLONEDDS_URI", config)
         yield config
+
+
+@pytest.fixture(autouse=True)
+def restore_root_logger() -> Iterator[None]:
+    """Undo ``edge-vis`` CLI runs' logging set-up: their handler writes to the test's
+    captured stderr, which is closed once the test ends, so a background thread of a later
+    test (a UDT connection ending, say) would log into a closed file."""
+    root = logging.getLogger()
+    handlers, level = list(root.handlers), root.level
+    yield
+    root.handlers[:] = handlers
+    root.setLevel(level)
 
 
 @pytest.fixture
