@@ -156,25 +156,19 @@ def read_totals(log: Path) -> dict[str, int]:
     return totals
 
 
-#: link drops that are refused input (the simulator's garbage), not messages lost
-REFUSED = ("malformed", "undecodable", "not for us")
-
-
 def lost_messages(totals: dict[str, int], poses_received: int) -> list[tuple[str, int, str]]:
     """(where, how many lost, what was counted) from the relay's totals and the poses the
     operator received."""
-    gaps = totals.get("events missed", 0)
-    events = totals.get("events received", 0)
-    dropped = {k: v for k, v in totals.items()
-               if " dropped: " in k and not k.split(" dropped: ", 1)[1].startswith(REFUSED)}
-    refused = sum(v for k, v in totals.items() if " dropped: " in k) - sum(dropped.values())
-    errors = sum(totals.get(k, 0) for k in ("publish errors", "send errors", "encode errors",
-                                             "delivery failed"))
+    from edge_vis.runtime import losses
+
+    lost = losses(totals)
+    refused = sum(v for k, v in totals.items() if " dropped: " in k and k not in lost)
     published = totals.get("published GlobalPose", 0)
     return [
-        ("vehicles -> relay (Event gaps)", gaps, f"{events} Events received"),
-        ("in the relay (queues, errors)", sum(dropped.values()) + errors,
-         ", ".join(f"{k} {v}" for k, v in dropped.items())
+        ("vehicles -> relay (Event gaps)", totals.get("events missed", 0),
+         f"{totals.get('events received', 0)} Events received"),
+        ("in the relay (queues, errors)", sum(lost.values()),
+         ", ".join(f"{k} {v}" for k, v in lost.items())
          or f"no queue drops; {refused} malformed inputs refused"),
         ("relay -> operator (GlobalPose)", max(0, published - poses_received),
          f"{published} published, {poses_received} received"),
@@ -295,7 +289,6 @@ async def soak(args: argparse.Namespace) -> int:
         stop_at = start + args.minutes * 60.0
         warmup = min(120.0, args.minutes * 60.0 / 3)
         driver = asyncio.create_task(operate(op, stop_at))
-        rss: list[tuple[float, float]] = []
         rss_all: list[tuple[float, float]] = []
         fds: list[tuple[float, float]] = []
         threads: list[tuple[float, float]] = []
@@ -328,7 +321,6 @@ async def soak(args: argparse.Namespace) -> int:
                   f"{msgs_out:9d}", flush=True)
             rss_all.append((t, fig["rss_kib"]))
             if t >= warmup:
-                rss.append((t, fig["rss_kib"]))
                 fds.append((t, fig["fds"]))
                 threads.append((t, fig["threads"]))
                 for vid in op.pose_count:
@@ -353,6 +345,7 @@ async def soak(args: argparse.Namespace) -> int:
         totals = read_totals(workdir / "relay.log")
         expected = UDP_VEHICLES + SERIAL_VEHICLES
         seen = len(op.pose_count)
+        rss = [(t, kib) for t, kib in rss_all if t >= warmup]
         growth = slope_per_minute(rss)
         late_growth = slope_per_minute(rss[len(rss) // 2:])
         fd_growth = (fds[-1][1] - fds[0][1]) if len(fds) > 1 else 0

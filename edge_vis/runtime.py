@@ -47,6 +47,10 @@ log = logging.getLogger(__name__)
 LINK_STATUS_PERIOD = 1.0
 #: seconds between two ``totals:`` log lines
 TOTALS_PERIOD = 600.0
+#: counters of :meth:`Runtime.totals` that mean the relay lost something it had accepted
+LOSS_COUNTERS = ("publish errors", "send errors", "encode errors", "delivery failed")
+#: link drop reasons of input refused on arrival (garbage on the wire): not losses
+REFUSED_INPUT = ("malformed",)
 #: at most this many log lines per reason and minute for bad input from the network
 _LOG_BURST = 5
 
@@ -64,6 +68,15 @@ class _RateLimitedLog:
         elif count == _LOG_BURST:
             log.warning("%s: further messages of this kind suppressed for a minute", reason)
         self._window[reason] = (start, count + 1)
+
+
+def losses(totals: Mapping[str, int]) -> dict[str, int]:
+    """The non-zero counts in ``totals`` (:meth:`Runtime.totals`, or its logged copy) of
+    what the relay accepted and then lost: link drops other than refused input, and
+    publish, send, encode and delivery errors."""
+    return {k: v for k, v in totals.items()
+            if v and (k in LOSS_COUNTERS or (" dropped: " in k and not k.split(
+                " dropped: ", 1)[1].startswith(REFUSED_INPUT)))}
 
 
 class Runtime:

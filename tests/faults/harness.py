@@ -42,11 +42,6 @@ RELAY_ID = JausAddress(200, 1, 1)
 SUBSYSTEM = 121
 OPERATOR = "op-faults"
 
-#: relay counters that mean something accepted was lost
-RELAY_ERRORS = ("publish errors", "send errors", "encode errors")
-#: link drop reasons for input refused on arrival (garbage on the wire), not losses
-REFUSED_INPUT = ("malformed",)
-
 _ips = itertools.cycle(range(150, 190))  # 190-199: tests/test_limits.py, test_security.py
 
 
@@ -224,10 +219,7 @@ class SerialWire:
                 self._inject.clear()
 
     async def stop(self) -> None:
-        if self._task is not None:
-            self._task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._task
+        await _cancel(self._task)
         os.close(self.master)
         os.close(self.vehicle_fd)
 
@@ -333,11 +325,8 @@ class Rig:
                 self.control_states.append((now, str(sample["state"]), sample["operator_id"]))
 
     async def stop(self) -> None:
-        for task in (self._driver, self._poller):
-            if task is not None:
-                task.cancel()
-                with contextlib.suppress(asyncio.CancelledError):
-                    await task
+        await _cancel(self._driver)
+        await _cancel(self._poller)
         if self.runtime is not None:
             await self.runtime.stop()
         if self.operator is not None:
@@ -350,11 +339,8 @@ class Rig:
 
     async def close_operator_abruptly(self) -> None:
         """The station's process dies: its participant goes away without a release."""
-        if self._poller is not None:
-            self._poller.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._poller
-            self._poller = None
+        await _cancel(self._poller)
+        self._poller = None
         self.operator.close()
         self.operator = None
 
@@ -398,11 +384,8 @@ class Rig:
         self._driver = asyncio.get_running_loop().create_task(loop())
 
     async def stop_driving(self) -> None:
-        if self._driver is not None:
-            self._driver.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._driver
-            self._driver = None
+        await _cancel(self._driver)
+        self._driver = None
 
     # -- what the vehicle and the relay say --------------------------------------------
     @property
@@ -456,20 +439,20 @@ class Rig:
         """Commands the vehicle got from a sender that did not hold control: must stay 0."""
         return self.sim.counters["commands_ignored"]
 
-    def relay_losses(self) -> dict[str, int]:
-        """Counts of what the relay accepted and then lost (link queue drops, publish,
-        send and encode errors); refused malformed input is not among them."""
-        assert self.runtime is not None
-        return {k: v for k, v in self.runtime.totals().items()
-                if v and (k in RELAY_ERRORS or (" dropped: " in k and not k.split(
-                    " dropped: ", 1)[1].startswith(REFUSED_INPUT)))}
-
     def healthy(self, since: float) -> bool:
         """Rediscovered, events on both sides, control on both sides, poses flowing,
         commands obeyed."""
         return (self.relay_online() and self.relay_events_active() and self.vehicle_events() > 0
                 and self.relay_controlled() and self.vehicle_controlled()
                 and self.poses_since(since) >= 3)
+
+
+async def _cancel(task: asyncio.Task[None] | None) -> None:
+    """Cancel ``task`` (if any) and wait until it has ended."""
+    if task is not None:
+        task.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await task
 
 
 async def until(check: Callable[[], bool], timeout: float, what: str) -> float:

@@ -17,6 +17,7 @@ from collections.abc import Awaitable, Callable
 
 import pytest
 
+from edge_vis.runtime import losses
 from edge_vis.sim.profile import FaultSpec
 
 from .conftest import FaultResult
@@ -44,9 +45,10 @@ def nothing_accepted_lost(rig: Rig, result: FaultResult) -> None:
     """What the relay took in, it passed on: no queue drops, no publish or send errors.
     Events the wire lost are the wire's (shown as gaps), refused garbage is not a loss."""
     assert rig.runtime is not None
-    losses = rig.relay_losses()
-    assert not losses, f"the relay lost what it had accepted: {losses}"
-    gaps = rig.runtime.totals().get("events missed", 0)
+    totals = rig.runtime.totals()
+    lost = losses(totals)
+    assert not lost, f"the relay lost what it had accepted: {lost}"
+    gaps = totals.get("events missed", 0)
     result.checks.append("0 accepted lost" + (f" ({gaps} Event gaps on the wire)"
                                                if gaps else ""))
 
