@@ -33,6 +33,7 @@ Every ``--sample`` seconds the relay's resident memory, open file descriptors an
 Usage::
 
     .venv/bin/python bench/soak.py --minutes 10
+    .venv/bin/python bench/soak.py --minutes 25 --heap-stats heap.txt   # what grows, and where
 """
 
 from __future__ import annotations
@@ -282,8 +283,13 @@ async def soak(args: argparse.Namespace) -> int:
     try:
         ptys = wait_for_files([workdir / f"pty-{j}.path" for j in range(SERIAL_VEHICLES)], 20)
         (workdir / "relay.toml").write_text(relay_profile(domain, partition, ptys))
+        relay_env = env
+        if args.heap_stats:  # bench/heapstats/sitecustomize.py samples inside the relay
+            relay_env = dict(env, EDGE_VIS_HEAP_STATS=str(Path(args.heap_stats).resolve()),
+                             PYTHONPATH=os.pathsep.join(filter(None, (
+                                 str(ROOT / "bench" / "heapstats"), env.get("PYTHONPATH")))))
         relay = subprocess.Popen([*exe, "run", "--profile", str(workdir / "relay.toml")],
-                                 stdout=relay_log, stderr=subprocess.STDOUT, env=env)
+                                 stdout=relay_log, stderr=subprocess.STDOUT, env=relay_env)
         op = Operator(domain, partition)
         start = time.monotonic()
         stop_at = start + args.minutes * 60.0
@@ -420,6 +426,9 @@ def main() -> int:
                         help="KiB per minute of resident-memory growth that fails the run")
     parser.add_argument("--max-late-growth", type=float, default=64.0,
                         help="the same over the second half of the samples after warm-up")
+    parser.add_argument("--heap-stats", metavar="FILE",
+                        help="write the relay's heap statistics to FILE every 30 s "
+                             "(bench/heapstats: glibc's mallinfo2, pymalloc, mappings)")
     parser.add_argument("--pose-gap", type=float, default=30.0,
                         help="seconds without a vehicle's pose that fail the run")
     args = parser.parse_args()
