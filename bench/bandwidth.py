@@ -1,6 +1,6 @@
 """Bandwidth plan and link scheduling on an emulated 19,200 bit/s shared serial radio.
 
-Three simulated UGVs (``edge_vis.sim``, real ptys) and one relay (the real runtime, serial
+Three simulated UGVs (``edge_vis.tools.sim``, real ptys) and one relay (the real runtime, serial
 link on a real pty) share one half-duplex radio emulated by ``tests/bandwidth/radiohub.py``
 (one FIFO of frames, 1,920 bytes/s). Every vehicle is asked for ReportGlobalPose and
 ReportVelocityState at 10 Hz; an operator takes control and sends a WrenchEffortCommand
@@ -30,13 +30,13 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "bandwidth"))
 
+from edge_vis.tools.sim.profile import parse_profile
 from radiohub import RadioHub
 
 from edge_vis.catalogue import default_catalogue
 from edge_vis.config import from_mapping
-from edge_vis.runtime import Runtime
-from edge_vis.sim.profile import parse_profile
-from edge_vis.sim.runtime import Simulation
+from edge_vis.shell.relay import Runtime
+from edge_vis.tools.sim.runner import Simulation
 
 BAUD = 19200
 VEHICLES = 3

@@ -30,11 +30,11 @@ os.environ.setdefault(
 from edge_vis.catalogue import default_catalogue
 from edge_vis.config import load_default_profile
 from edge_vis.dds.bridge import DdsBridge
-from edge_vis.engine.actions import Publish
 from edge_vis.engine.engine import Engine
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import Packet, pack_datagram, unpack_datagram
-from edge_vis.router import Deliver, Router
+from edge_vis.kit.actions import Publish
+from edge_vis.routing.router import Deliver, Router
 
 VEHICLES = 20
 SERVICES = ("urn:jaus:jss:core:Events", "urn:jaus:jss:core:AccessControl",

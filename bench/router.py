@@ -9,7 +9,7 @@ traffic and sinks it (the other core). Paths measured:
 
 * ``bare udp→udp``: a plain ``recvfrom``/``sendto`` loop (the reference),
 * ``bare udp→pty``: ``recvfrom``, JAUS serial framing, ``os.write`` to a pty,
-* ``router udp→udp``: two :class:`~links.udp.UdpLink` + :class:`~edge_vis.router.Router`
+* ``router udp→udp``: two :class:`~links.udp.UdpLink` + :class:`~edge_vis.routing.router.Router`
   on asyncio (relay switch on), the destination known from a static route,
 * ``router udp→serial``: the same into a :class:`~links.serial.SerialLink` on a pty
   (baud 20 000 000, ``pace=0``: the pty has no line rate to honour).
@@ -40,11 +40,11 @@ import time
 import tty
 
 from edge_vis.jaus.address import JausAddress
-from edge_vis.jaus.serial import SerialDeframer, SerialFrame, frame
+from edge_vis.jaus.serial_framing import SerialDeframer, SerialFrame, frame
 from edge_vis.jaus.transport import Packet, pack_datagram, unpack_datagram
-from edge_vis.link import create_link
-from edge_vis.router import Router
-from edge_vis.testing import RouterNode
+from edge_vis.routing.link import create_link
+from edge_vis.routing.router import Router
+from edge_vis.tools.testing import RouterNode
 
 RELAY = JausAddress(200, 1, 1)
 SOURCE = JausAddress(42, 1, 1)

@@ -160,7 +160,7 @@ def read_totals(log: Path) -> dict[str, int]:
 def lost_messages(totals: dict[str, int], poses_received: int) -> list[tuple[str, int, str]]:
     """(where, how many lost, what was counted) from the relay's totals and the poses the
     operator received."""
-    from edge_vis.runtime import losses
+    from edge_vis.shell.relay import losses
 
     lost = losses(totals)
     refused = sum(v for k, v in totals.items() if " dropped: " in k and k not in lost)

@@ -17,7 +17,7 @@ from edge_vis.config import default_profile_path, from_mapping
 from edge_vis.errors import ConfigError, DecodeError, EncodeError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.fragments import Reassembler
-from edge_vis.jaus.serial import SerialDeframer
+from edge_vis.jaus.serial_framing import SerialDeframer
 from edge_vis.jaus.transport import DataFlags, Packet, unpack_datagram
 
 _CATALOGUE = default_catalogue()

@@ -19,7 +19,7 @@ URL::
 The port is opened exclusively (``flock``): a second process asking for the same radio
 gets a clear error instead of silently splitting its bytes with the relay.
 
-The framing is :mod:`edge_vis.jaus.serial` (sans-I/O). This module opens the port with
+The framing is :mod:`edge_vis.jaus.serial_framing` (sans-I/O). This module opens the port with
 pyserial (which sets the line discipline and speed) and then reads and writes its file
 descriptor from the asyncio loop with ``add_reader``/``add_writer``: no threads. The peer
 address of every received packet is the device path (a serial line is point to point).
@@ -38,9 +38,9 @@ from typing import ClassVar
 import serial  # pyserial
 
 from edge_vis.errors import ConfigError, LinkError
-from edge_vis.jaus.serial import FRAME_OVERHEAD, SerialDeframer, SerialError, frame
+from edge_vis.jaus.serial_framing import FRAME_OVERHEAD, SerialDeframer, SerialError, frame
 from edge_vis.jaus.transport import Packet
-from edge_vis.link import Link, LinkUrl, Peer
+from edge_vis.routing.link import Link, LinkUrl, Peer
 
 log = logging.getLogger(__name__)
 

@@ -40,7 +40,7 @@ from typing import ClassVar
 
 from edge_vis.errors import ConfigError, DecodeError, LinkError
 from edge_vis.jaus.transport import JUDP_VERSION, Packet, encode_packet, unpack_datagram
-from edge_vis.link import Link, LinkUrl, Peer, parse_peers
+from edge_vis.routing.link import Link, LinkUrl, Peer, parse_peers
 
 log = logging.getLogger(__name__)
 

@@ -1,7 +1,8 @@
 """An independent, test-only reader of JSIDL (AS5684) XML. Reads files; no network.
 
 It exists to give a *second opinion* on the message catalogue: it shares no code with
-``edge_vis.jsidl`` and reduces each ``message_def`` to its flattened sequence of wire items
+``edge_vis.catalogue.jsidl`` and reduces each ``message_def`` to its flattened sequence of wire
+items
 (:class:`Item`), the same shape :func:`flatten_record` derives from an
 ``edge_vis.codec.types`` definition, so the two can be compared item by item.
 

@@ -16,15 +16,15 @@ import pytest
 
 from edge_vis.catalogue import default_catalogue
 from edge_vis.config import from_mapping
-from edge_vis.engine.actions import SendMessage
 from edge_vis.engine.engine import Engine
-from edge_vis.jaus import serial as jserial
+from edge_vis.jaus import serial_framing as jserial
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.fragments import Reassembler
 from edge_vis.jaus.transport import DataFlags, Packet
-from edge_vis.link import MAX_TRACKED_PEERS
+from edge_vis.kit.actions import SendMessage
 from edge_vis.plugins import LINKS, load
-from edge_vis.router import Deliver, Router, RouterConfig
+from edge_vis.routing.link import MAX_TRACKED_PEERS
+from edge_vis.routing.router import Deliver, Router, RouterConfig
 
 RELAY = JausAddress(200, 1, 1)
 FLOOD = 10_000
@@ -234,7 +234,7 @@ def test_limits_are_checked_in_the_profile(key: str, value: int) -> None:
 def test_link_drop_reasons_are_a_small_vocabulary() -> None:
     """The drop counters (published in LinkStatus) must not grow with random input."""
     from edge_vis.jaus.transport import unpack_datagram
-    from edge_vis.link import Link
+    from edge_vis.routing.link import Link
 
     class Probe(Link):
         scheme = "probe"

@@ -1,5 +1,5 @@
 """The relay's allocator tuning: large blocks are mapped on their own, so freeing them
-gives the memory back and the heap does not creep (see edge_vis.memory)."""
+gives the memory back and the heap does not creep (see edge_vis.shell.memory)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 
 PROBE = """
 import ctypes, sys
-from edge_vis.memory import tune_allocator
+from edge_vis.shell.memory import tune_allocator
 class Info(ctypes.Structure):
     _fields_ = [(n, ctypes.c_size_t) for n in ("arena", "ordblks", "smblks", "hblks",
                 "hblkhd", "usmblks", "fsmblks", "uordblks", "fordblks", "keepcost")]

@@ -11,7 +11,7 @@ import uuid
 
 import pytest
 
-from edge_vis.monitor import FleetView, Operator, waypoint_plan
+from edge_vis.tools.monitor_view import FleetView, Operator, waypoint_plan
 
 
 def _fleet(view: FleetView, now: float) -> None:

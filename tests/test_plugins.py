@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from edge_vis import plugins
-from edge_vis.commands import plugins as plugins_command
+from edge_vis.cli import plugins as plugins_command
 from edge_vis.errors import PluginConflictError, PluginLoadError, PluginNotFoundError
 
 

@@ -7,7 +7,7 @@ import pytest
 from edge_vis.errors import LocalProtocolError
 from edge_vis.jaus.address import BROADCAST, JausAddress
 from edge_vis.jaus.transport import AckNak, Broadcast, DataFlags, Packet, Priority
-from edge_vis.router import Deliver, DeliveryFailed, Router, RouterConfig, SendPackets
+from edge_vis.routing.router import Deliver, DeliveryFailed, Router, RouterConfig, SendPackets
 
 ME = JausAddress(200, 1, 1)
 ME2 = JausAddress(200, 1, 2)

@@ -17,8 +17,8 @@ from pathlib import Path
 import pytest
 
 from edge_vis.config import from_mapping, load_profile
+from edge_vis.config.operators import OperatorPolicy
 from edge_vis.errors import ConfigError
-from edge_vis.security import OperatorPolicy
 
 # -- the policy --------------------------------------------------------------------------------
 
@@ -94,9 +94,10 @@ def test_shipped_profiles_say_explicitly_that_anyone_may_command() -> None:
 def test_refused_operators_never_reach_the_vehicle(monkeypatch: pytest.MonkeyPatch,
                                                     caplog: pytest.LogCaptureFixture) -> None:
     dds = pytest.importorskip("edge_vis.dds")
-    from edge_vis.runtime import Runtime
-    from edge_vis.sim.profile import VehicleSpec
-    from edge_vis.sim.runtime import UdpVehicle
+    from edge_vis.tools.sim.profile import VehicleSpec
+
+    from edge_vis.shell.relay import Runtime
+    from edge_vis.tools.sim.runner import UdpVehicle
 
     monkeypatch.setenv("CYCLONEDDS_URI", dds.loopback_config())
     domain, partition = 180 + int(time.time()) % 40, f"edge-vis-sec-{uuid.uuid4().hex[:8]}"

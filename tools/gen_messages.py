@@ -7,7 +7,7 @@ Usage::
 
 ``JAUS_REFERENCE_DIR`` holds ``jsidl/`` (the JAUS Toolset set) and ``jsidl-iop/`` (the
 Army IOP set); it defaults to ``../shared/jaus`` beside the repository root. The script
-parses them with :mod:`edge_vis.jsidl` and writes readable Python modules to
+parses them with :mod:`edge_vis.catalogue.jsidl` and writes readable Python modules to
 ``edge_vis/jaus/messages/``, one per service set, then runs ``ruff format`` and
 ``ruff check --fix`` on them. The product never reads the JSIDL at run time: the generated
 modules are committed.
@@ -39,6 +39,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from edge_vis.catalogue.jsidl import JsidlModel, parse_files  # noqa: E402
 from edge_vis.codec.types import (  # noqa: E402
     BitField,
     Enum,
@@ -60,7 +61,6 @@ from edge_vis.codec.types import (  # noqa: E402
     snake_case,
 )
 from edge_vis.errors import ConfigError  # noqa: E402
-from edge_vis.jsidl import JsidlModel, parse_files  # noqa: E402
 
 log = logging.getLogger("gen_messages")
 
@@ -653,7 +653,7 @@ def write_init(chosen: list[Chosen], left: list[LeftOut], defects: list[tuple[st
         "",
         "A catalogue is keyed by message code, so the definitions of another version that",
         "reuse a code with a different layout are left out. Load the JSIDL of that version",
-        "(``edge_vis.jsidl.load_jsidl``) to talk to a peer that uses one of them.",
+        "(``edge_vis.catalogue.jsidl.load_jsidl``) to talk to a peer that uses one of them.",
         "",
         "Versions kept: core 1.1 (every core 1.0 message has the same layout and lists the",
         "1.0 services too), mobility 1.0, environmentSensing 1.0, manipulator 2.0, ugv 1.0, the",

@@ -14,8 +14,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from edge_vis.engine.actions import Action, Publish
-from edge_vis.translator import Translator, TranslatorContext, VehicleView
+from edge_vis.kit import Action, Publish, Translator, TranslatorContext, VehicleView
 
 #: ControlStatus.state for the relay's JAUS control while an operator holds the vehicle.
 _HELD_STATES = {

@@ -25,16 +25,17 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-from edge_vis.engine.actions import Action, Publish
-from edge_vis.translator import TranslatorContext
-from translators.generic import (
+from edge_vis.kit import (
     NAN,
+    Action,
     Computed,
     Const,
     Each,
     From,
+    Publish,
     ReportRule,
     RuleTranslator,
+    TranslatorContext,
     describe_rules,
     get_path,
 )

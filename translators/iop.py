@@ -23,8 +23,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from translators.generic import CommandRule as Cmd
-from translators.generic import (
+from edge_vis.kit import CommandRule as Cmd
+from edge_vis.kit import (
     Computed,
     Each,
     From,

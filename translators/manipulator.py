@@ -30,7 +30,7 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-from translators.generic import (
+from edge_vis.kit import (
     Build,
     Computed,
     Const,
@@ -41,7 +41,7 @@ from translators.generic import (
     ReportRule,
     RuleTranslator,
 )
-from translators.generic import CommandRule as Cmd
+from edge_vis.kit import CommandRule as Cmd
 
 MANIP = "urn:jaus:jss:manipulator:"
 REVOLUTE_LIMIT = 8 * math.pi        # joint position, rad (JSIDL: +-25.13)

@@ -45,23 +45,25 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from edge_vis.catalogue import default_catalogue
-from edge_vis.engine.actions import Action, Command, Publish
-from edge_vis.errors import ConfigError
-from edge_vis.translator import ReportSpec, TranslatorContext
-from translators.generic import (
+from edge_vis.kit import (
     NAN,
+    Action,
     Build,
+    Command,
+    ConfigError,
     Const,
     From,
+    Publish,
     Put,
     ReportRule,
+    ReportSpec,
     RuleTranslator,
+    TranslatorContext,
     code_of,
     label,
     number,
 )
-from translators.generic import CommandRule as Cmd
+from edge_vis.kit import CommandRule as Cmd
 
 MOBILITY = "urn:jaus:jss:mobility:"
 PRIMITIVE_DRIVER = MOBILITY + "PrimitiveDriver"
@@ -380,7 +382,7 @@ class WaypointMissions:
             return [self._status(vehicle.vehicle_id, ctx)]
         self.missions[vehicle.vehicle_id] = mission
         if mission.listed:
-            mission.steps = self._list_steps(mission)
+            mission.steps = self._list_steps(mission, ctx.catalogue)
             return [self._next_step(vehicle.vehicle_id), self._status(vehicle.vehicle_id, ctx)]
         mission.active, mission.state = 0, "EXECUTING"
         # a waypoint driver drives at its travel speed: set it first (its own throttle
@@ -452,9 +454,11 @@ class WaypointMissions:
 
     # -- steps ---------------------------------------------------------------------------
 
-    def _list_steps(self, mission: _Mission) -> list[tuple[str, dict[str, Any]]]:
+    @staticmethod
+    def _list_steps(mission: _Mission, catalogue: Any) -> list[tuple[str, dict[str, Any]]]:
+        """The List Manager steps of a plan; each waypoint is encoded with the relay's
+        catalogue (the context's), so a profile's own JSIDL definitions apply."""
         message = "SetLocalWaypoint" if mission.local else "SetGlobalWaypoint"
-        catalogue = default_catalogue()
         steps: list[tuple[str, dict[str, Any]]] = [
             ("DeleteElement", {"delete_element_list": [{"element_uid": ALL_ELEMENTS}]})]
         count = len(mission.waypoints)

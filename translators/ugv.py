@@ -28,7 +28,7 @@ import re
 from collections.abc import Mapping
 from typing import Any
 
-from translators.generic import (
+from edge_vis.kit import (
     NAN,
     Build,
     Computed,
@@ -43,7 +43,7 @@ from translators.generic import (
     get_path,
     label,
 )
-from translators.generic import CommandRule as Cmd
+from edge_vis.kit import CommandRule as Cmd
 
 UGV = "urn:jaus:jss:ugv:"
 

@@ -5,7 +5,7 @@ An example of a vendor translator written against the public plugin API only; de
 removes it and leaves every other translator working.
 
 * Discovery: ``VendorHello`` (broadcast by vehicles without JAUS Discovery) ->
-  :class:`~edge_vis.engine.actions.DeclareVehicle` with the vehicle's name, type, JAUS ID
+  :class:`~edge_vis.kit.actions.DeclareVehicle` with the vehicle's name, type, JAUS ID
   and services. A vehicle that sends nothing at all is described in a static vehicle
   profile instead (``components`` with their services); the engine declares it at start-up.
 * ReportOceanEnvironment -> ``EnvironmentalData`` (deg C, PSU, m, m/s, rad).
@@ -18,17 +18,18 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from edge_vis.engine.actions import Action, DeclareVehicle
-from edge_vis.engine.discovery import derive_vehicle_id
-from edge_vis.jaus.address import JausAddress
-from edge_vis.translator import TranslatorContext
-from translators.generic import (
+from edge_vis.kit import (
     NAN,
+    Action,
     Computed,
     Const,
+    DeclareVehicle,
     From,
+    JausAddress,
     ReportRule,
     RuleTranslator,
+    TranslatorContext,
+    derive_vehicle_id,
     describe_rules,
     label,
 )

@@ -21,7 +21,7 @@ from edge_vis.bandwidth.sizes import event_payload, packet_bytes, payload_size
 
 if TYPE_CHECKING:
     from edge_vis.config import RelayProfile, VehicleProfile
-    from edge_vis.translator import ReportSpec
+    from edge_vis.kit.contract import ReportSpec
 
 log = logging.getLogger(__name__)
 

@@ -20,7 +20,6 @@ definition; :func:`pick` finds a field either way.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Iterable, Mapping
 from typing import Any
 
@@ -145,10 +144,3 @@ def components_from_configuration(fields: Mapping[str, Any]) -> list[tuple[int, 
     return found
 
 
-_UNSAFE = re.compile(r"[^0-9A-Za-z_.-]+")
-
-
-def derive_vehicle_id(name: str, subsystem: int) -> str:
-    """A stable vehicle ID from the reported name and subsystem: ``SimulatedVehicle-126``."""
-    clean = _UNSAFE.sub("_", name.strip()).strip("_")
-    return f"{clean or 'jaus'}-{subsystem}"

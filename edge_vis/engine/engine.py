@@ -20,7 +20,7 @@ component/service tree (:mod:`~edge_vis.engine.discovery`), liveness and the sil
 JAUS access control and readiness of the commanded components
 (:mod:`~edge_vis.engine.control`), event subscriptions with polling fallback
 (:mod:`~edge_vis.engine.subscriptions`), command throttles and the dead-man
-(:mod:`~edge_vis.engine.commands`) and operator arbitration
+(:mod:`~edge_vis.engine.command_slots`) and operator arbitration
 (:mod:`~edge_vis.engine.arbitration`).
 
 A vehicle silent for ``discovery.lost_after`` liveness periods is *lost*: its events,
@@ -42,21 +42,12 @@ from typing import Any, Protocol
 
 from edge_vis.bandwidth.demands import FleetPlanner, VehicleWants
 from edge_vis.config import RelayProfile
-from edge_vis.engine.actions import (
-    Action,
-    Command,
-    DeclareVehicle,
-    Publish,
-    SendMessage,
-    ShutdownComplete,
-)
-from edge_vis.engine.commands import CommandSlot
+from edge_vis.engine.command_slots import CommandSlot
 from edge_vis.engine.control import ComponentControl, ControlState, Outgoing
 from edge_vis.engine.discovery import (
     CORE,
     IDENTIFICATION_TYPES,
     components_from_configuration,
-    derive_vehicle_id,
     pick,
     services_from_report,
 )
@@ -64,7 +55,15 @@ from edge_vis.engine.manager import TranslationManager
 from edge_vis.engine.subscriptions import Request, Subscription, SubscriptionState
 from edge_vis.engine.vehicle import Vehicle
 from edge_vis.jaus.address import BROADCAST, JausAddress
-from edge_vis.translator import Translator, TranslatorContext, VehicleView
+from edge_vis.kit.actions import (
+    Action,
+    Command,
+    DeclareVehicle,
+    Publish,
+    SendMessage,
+    ShutdownComplete,
+)
+from edge_vis.kit.contract import Translator, TranslatorContext, VehicleView, derive_vehicle_id
 
 log = logging.getLogger(__name__)
 
@@ -311,7 +310,7 @@ class Engine:
         (CreateEvent for the same query updates the event; a polled report is polled at
         the new rate); control and command settings hold from the next request. The
         caller keeps the relay's id, links, DDS and translators unchanged (see
-        :func:`edge_vis.reload.effective_profile`). A vehicle profile that would rename a
+        :func:`edge_vis.shell.reload.effective_profile`). A vehicle profile that would rename a
         running vehicle is not applied (its DDS key would change under the operators).
         """
         self.profile = profile
@@ -816,7 +815,7 @@ class Engine:
             decision = arb.release(operator)
         elif action == "request" and (refusal := self.profile.operators.refusal(
                 operator, int(sample.get("authority", 0)))):
-            # not in the profile's allowlist (edge_vis.security): counted, logged, reported
+            # not in the profile's allowlist (edge_vis.config.operators): counted, logged, reported
             self.counters["control_requests_refused"] += 1
             if arb.last_rejection != refusal:
                 log.warning("vehicle %s: control request %s", vehicle.vehicle_id, refusal)
@@ -1071,6 +1070,7 @@ class Engine:
             vehicle=self._view(vehicle) if vehicle is not None else None,
             vehicles=_LazyViews(self),
             source=source,
+            catalogue=self.catalogue,
         )
 
 

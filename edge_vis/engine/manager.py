@@ -4,7 +4,7 @@ Reads package metadata and imports translator plugins when built with
 :meth:`TranslationManager.from_selection`; routing itself does no I/O.
 
 Every translator declares what it consumes and produces (see
-:mod:`edge_vis.translator`). At start-up the manager checks that no JAUS message and no
+:mod:`edge_vis.kit.contract`). At start-up the manager checks that no JAUS message and no
 subscribed topic is claimed twice (each must go to exactly one translator), and raises
 :class:`~edge_vis.errors.PluginConflictError` naming both claimants otherwise. Several
 translators may *publish* one topic (still images and ATR images are both image
@@ -20,9 +20,9 @@ from typing import Any
 
 from edge_vis import plugins
 from edge_vis.config import TranslatorSelection
-from edge_vis.engine.actions import Action
 from edge_vis.errors import PluginConflictError, PluginLoadError
-from edge_vis.translator import ReportSpec, Translator, TranslatorContext
+from edge_vis.kit.actions import Action
+from edge_vis.kit.contract import ReportSpec, Translator, TranslatorContext
 
 log = logging.getLogger(__name__)
 
@@ -85,11 +85,7 @@ class TranslationManager:
                 instance.name = name
             table = (options if options is not None else selection.options).get(name)
             if table is not None:
-                configure = getattr(instance, "configure", None)
-                if configure is None:
-                    raise PluginLoadError(f"translator {name!r} takes no options, but the "
-                                          f"profile has a [translators.{name}] table")
-                configure(table)  # raises ConfigError naming the bad keys
+                instance.configure(table)  # raises ConfigError naming the bad keys
             loaded.append(instance)
         return cls(loaded)
 

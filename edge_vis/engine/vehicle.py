@@ -1,7 +1,7 @@
 """Per-vehicle state shared by every translator: tree, liveness, control, events, commands.
 
 No I/O. One :class:`Vehicle` per JAUS subsystem lives in the engine; translators only see
-a read-only :class:`~edge_vis.translator.VehicleView` of it.
+a read-only :class:`~edge_vis.kit.contract.VehicleView` of it.
 """
 
 from __future__ import annotations
@@ -10,12 +10,12 @@ from dataclasses import dataclass, field
 
 from edge_vis.config import VehicleProfile
 from edge_vis.engine.arbitration import Arbitration
-from edge_vis.engine.commands import CommandSlot
+from edge_vis.engine.command_slots import CommandSlot
 from edge_vis.engine.control import ComponentControl
 from edge_vis.engine.discovery import Service, with_inherited
 from edge_vis.engine.subscriptions import Subscription
 from edge_vis.jaus.address import JausAddress
-from edge_vis.translator import STATUS_NAMES
+from edge_vis.kit.contract import STATUS_NAMES
 
 #: Most severe first: the vehicle's state is the most severe of its components'.
 _SEVERITY = (5, 4, 3, 0, 2, 1)

@@ -3,7 +3,7 @@
 Used by the bandwidth end-to-end test and ``bench/bandwidth.py``. Performs I/O (ptys).
 
 The relay opens ``hub.relay_path`` (a real pseudo-terminal) as its serial link; each
-simulated vehicle (:class:`edge_vis.sim.runtime.PtyVehicle`) has its own pty, which the
+simulated vehicle (:class:`edge_vis.tools.sim.runner.PtyVehicle`) has its own pty, which the
 hub opens as the radio would. Every JAUS serial frame, from either side, joins ONE FIFO
 (the air time of a half-duplex radio shared by everyone) drained at ``baud / 10`` bytes
 per second: frames from the relay go to every vehicle (a radio broadcasts), frames from a
@@ -22,7 +22,7 @@ import tty
 from collections import Counter, deque
 from dataclasses import dataclass, field
 
-from edge_vis.jaus import serial as jserial
+from edge_vis.jaus import serial_framing as jserial
 from edge_vis.jaus.transport import Packet
 
 EVENT = 0x41F1

@@ -8,10 +8,10 @@ from typing import Any
 from edge_vis.bandwidth.demands import FleetPlanner
 from edge_vis.catalogue import default_catalogue
 from edge_vis.config import from_mapping
-from edge_vis.engine.actions import SendMessage
 from edge_vis.engine.engine import Engine
 from edge_vis.engine.subscriptions import SubscriptionState
 from edge_vis.jaus.address import JausAddress
+from edge_vis.kit.actions import SendMessage
 from translators.mobility import MobilityTranslator
 
 CAT = default_catalogue()

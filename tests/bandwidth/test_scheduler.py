@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 from edge_vis.bandwidth.linkspec import LinkSpec
-from edge_vis.bandwidth.scheduler import latest_wins_key, priority_for
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import DataFlags, Packet
-from edge_vis.router import Router, SendPackets
+from edge_vis.routing.router import Router, SendPackets
+from edge_vis.routing.traffic import latest_wins_key, priority_for
 
 RELAY = JausAddress(200, 1, 1)
 UGV = JausAddress(101, 1, 1)

@@ -7,7 +7,7 @@ from edge_vis.bandwidth.linkspec import LinkSpec
 from edge_vis.bandwidth.sizes import packet_bytes, payload_size
 from edge_vis.catalogue import default_catalogue
 from edge_vis.config import from_mapping
-from edge_vis.translator import ReportSpec
+from edge_vis.kit.contract import ReportSpec
 
 CAT = default_catalogue()
 SERIAL = LinkSpec(bit_rate=9600, bits_per_byte=10, overhead=18, mtu=256)

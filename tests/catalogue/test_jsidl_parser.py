@@ -1,7 +1,7 @@
 """Run-time JSIDL import: a user's own service definitions become message definitions.
 
 Each test writes a small JSIDL service (AS5684 XML) into ``tmp_path``, loads it with
-``edge_vis.jsidl.load_jsidl`` and checks the layout a user would get, or checks that a
+``edge_vis.catalogue.jsidl.load_jsidl`` and checks the layout a user would get, or checks that a
 malformed file is rejected with a ConfigError naming the file, the element and the problem.
 The last tests compare the committed built-in modules with the public JSIDL they were
 generated from (skipped when the reference material is not beside the repository).
@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 
+from edge_vis.catalogue.jsidl import load_jsidl
 from edge_vis.codec.types import (
     BitField,
     Enum,
@@ -36,7 +37,6 @@ from edge_vis.codec.types import (
     u32,
 )
 from edge_vis.errors import ConfigError
-from edge_vis.jsidl import load_jsidl
 
 NS = 'xmlns="urn:jaus:jsidl:1.0"'
 

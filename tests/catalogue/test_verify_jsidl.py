@@ -1,7 +1,8 @@
 """Every built-in message definition matches the public JSIDL, read independently.
 
 ``tests/jsidl_walk.py`` reads the JAUS Toolset (``jsidl/``) and IOP (``jsidl-iop/``) JSIDL
-without using ``edge_vis.jsidl`` and reduces every message to its flattened wire items; here
+without using ``edge_vis.catalogue.jsidl`` and reduces every message to its flattened wire
+items; here
 each built-in definition in ``default_catalogue()`` is reduced the same way and compared:
 code, name, field order and names, types and signedness, scale limits, named values,
 presence-vector widths and bits, list count widths, variant tags, string and byte counts.

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from edge_vis.cli import main
-from edge_vis.pcap import PcapWriter, UdpDatagram, read_udp
+from edge_vis.jaus.pcap import PcapWriter, UdpDatagram, read_udp
 
 # From the JAUS Toolset capture: ReportIdentification "SimulatedVehicle" from 126.1.199.
 REPORT_ID = "020024000101012a00c7017e00004b0211271053696d756c6174656456656869636c650100"

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from edge_vis.cli import main
-from edge_vis.commands.idl import idl_text
+from edge_vis.cli.idl import idl_text
 
 # Runs the CLI with ``cyclonedds`` made unimportable, as on a machine without the extra.
 WITHOUT_CYCLONEDDS = """

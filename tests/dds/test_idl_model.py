@@ -15,7 +15,7 @@ from typing import Any
 
 import pytest
 
-from edge_vis.commands import idl as idl_command
+from edge_vis.cli import idl as idl_command
 from edge_vis.dds import model
 from edge_vis.dds.convert import key_members
 from edge_vis.dds.topics import standard_topics

@@ -9,7 +9,7 @@ import time
 
 from deploykit import NotifyListener, Relay, relay_env
 
-from edge_vis.service import Heartbeat, Notifier
+from edge_vis.shell.service import Heartbeat, Notifier
 
 
 def test_run_reports_ready_then_watchdog_then_stopping(

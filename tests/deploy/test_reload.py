@@ -14,7 +14,7 @@ from e2e.peer_sets import SetPeer, pose_peer
 
 from edge_vis.config import LinkProfile, RelayProfile, from_mapping
 from edge_vis.jaus.address import JausAddress
-from edge_vis.reload import APPLIED, DEFERRED, RESTART, diff_profiles, effective_profile
+from edge_vis.shell.reload import APPLIED, DEFERRED, RESTART, diff_profiles, effective_profile
 
 RELAY_IP, PEER_IP = "127.0.61.11", "127.0.61.12"
 PEER_ID = JausAddress(61, 1, 1)

@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 
 from edge_vis.jaus.address import JausAddress
-from edge_vis.runtime import Runtime
+from edge_vis.shell.relay import Runtime
 
 from .peer_sets import SetPeer
 from .test_translators_e2e import collect, command_until, relay_with, take_control

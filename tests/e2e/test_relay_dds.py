@@ -12,7 +12,7 @@ import pytest
 
 from edge_vis.config import LinkProfile, load_default_profile
 from edge_vis.jaus.address import JausAddress
-from edge_vis.runtime import Runtime
+from edge_vis.shell.relay import Runtime
 
 from .peer_sets import SetPeer, pose_peer
 
@@ -119,9 +119,9 @@ def test_vehicle_ignoring_events_is_polled(domain_id: int, partition: str) -> No
 
 def test_mirror_writes_every_datagram_to_a_pcap(tmp_path) -> None:
     from edge_vis.catalogue import default_catalogue
+    from edge_vis.jaus.pcap import read_udp
     from edge_vis.jaus.transport import unpack_datagram
-    from edge_vis.mirror import Mirror
-    from edge_vis.pcap import read_udp
+    from edge_vis.shell.mirror import Mirror
 
     capture = tmp_path / "relay.pcap"
 
@@ -159,7 +159,7 @@ def test_totals_account_for_every_pose_the_operator_received(
         poses = operator.reader("GlobalPose", depth=64)
         while len(counted) < 10:
             counted.extend(await asyncio.to_thread(poses.take, 1.0))
-        with caplog.at_level("INFO", logger="edge_vis.runtime"):
+        with caplog.at_level("INFO", logger="edge_vis.shell.relay"):
             await runtime.stop()
         counted.extend(await asyncio.to_thread(poses.take, 0.5))
         published = runtime.published["GlobalPose"]

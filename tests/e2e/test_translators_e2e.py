@@ -18,7 +18,7 @@ import pytest
 
 from edge_vis.config import from_mapping
 from edge_vis.jaus.address import JausAddress
-from edge_vis.runtime import Runtime
+from edge_vis.shell.relay import Runtime
 
 from .peer_sets import SetPeer
 
@@ -250,9 +250,9 @@ def test_iop_platform_and_health(domain_id: int, partition: str) -> None:
 def test_generic_profile_mapping_of_a_user_jsidl(domain_id: int, partition: str,
                                                  tmp_path: Path) -> None:
     from edge_vis.catalogue import default_catalogue
+    from edge_vis.catalogue.jsidl import load_jsidl
     from edge_vis.dds.model import GenericReport
     from edge_vis.dds.topics import TopicKind, TopicRegistry, TopicSpec
-    from edge_vis.jsidl import load_jsidl
 
     xml = tmp_path / "WaterQuality.xml"
     xml.write_text((Path(__file__).parents[1] / "translators" / "WaterQuality.xml").read_text())

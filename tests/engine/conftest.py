@@ -13,9 +13,9 @@ from typing import Any
 import pytest
 
 from edge_vis.config import RelayProfile, from_mapping
-from edge_vis.engine.actions import Publish, SendMessage
 from edge_vis.engine.engine import Engine
 from edge_vis.jaus.address import JausAddress
+from edge_vis.kit.actions import Publish, SendMessage
 
 SHARED = Path(__file__).resolve().parents[2] / ".." / "shared"
 

@@ -13,9 +13,9 @@ from typing import Any
 
 import pytest
 
-from edge_vis.engine.actions import SendMessage
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import unpack_datagram
+from edge_vis.kit.actions import SendMessage
 
 from .conftest import SHARED, Harness, profile, published, sent
 

@@ -6,11 +6,11 @@ from typing import Any
 
 import pytest
 
-from edge_vis.engine.actions import Command, DeclareVehicle, Publish, ShutdownComplete
 from edge_vis.engine.manager import TranslationManager
 from edge_vis.errors import PluginConflictError
 from edge_vis.jaus.address import JausAddress
-from edge_vis.translator import ReportSpec, Translator
+from edge_vis.kit.actions import Command, DeclareVehicle, Publish, ShutdownComplete
+from edge_vis.kit.contract import ReportSpec, Translator
 
 from .conftest import Harness, profile, published, sent
 

@@ -8,10 +8,10 @@ from typing import Any
 
 import pytest
 
-from edge_vis.engine.actions import SendMessage
 from edge_vis.errors import EncodeError
 from edge_vis.jaus.address import JausAddress
-from edge_vis.runtime import _code_of
+from edge_vis.kit.actions import SendMessage
+from edge_vis.shell.relay import _code_of
 
 from .conftest import Harness, profile, sent
 
@@ -94,8 +94,8 @@ def test_unnamed_set_encodes_by_name_and_an_unknown_set_is_an_encode_error(
 
 def test_deadman_stop_keeps_the_service_set() -> None:
     from edge_vis.config import CommandProfile
-    from edge_vis.engine.actions import Command
-    from edge_vis.engine.commands import CommandSlot
+    from edge_vis.engine.command_slots import CommandSlot
+    from edge_vis.kit.actions import Command
 
     slot = CommandSlot(CommandProfile(rate=10.0, lifespan=0.5, deadman_timeout=1.0))
     slot.offer(Command("v", "op", "k", "ExecuteList", {"element_uid": 1}, "svc",

@@ -8,10 +8,10 @@ from typing import Any
 import pytest
 
 from edge_vis.config import TranslatorSelection
-from edge_vis.engine.actions import Publish
 from edge_vis.engine.manager import TranslationManager
 from edge_vis.errors import PluginConflictError
-from edge_vis.translator import Translator
+from edge_vis.kit.actions import Publish
+from edge_vis.kit.contract import Translator
 
 
 class Writer(Translator):

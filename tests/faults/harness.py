@@ -1,7 +1,7 @@
 """The fault-matrix rig: a simulated vehicle, an impairing wire, the relay, an operator.
 
 Everything is real: the sim vehicle's JUDP socket or pseudo-terminal, the relay's
-:class:`~edge_vis.runtime.Runtime` with its UDP or serial link, and Cyclone DDS (loopback
+:class:`~edge_vis.shell.relay.Runtime` with its UDP or serial link, and Cyclone DDS (loopback
 only) between the relay and an operator station in this process. Between vehicle and
 relay sits an impairing wire that works on whole datagrams (UDP) or whole frames (serial,
 deframed and framed again), so each fault hits complete JAUS packets:
@@ -32,11 +32,11 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from edge_vis.config import from_mapping
-from edge_vis.jaus import serial as jserial
+from edge_vis.jaus import serial_framing as jserial
 from edge_vis.jaus.address import JausAddress
-from edge_vis.runtime import Runtime
-from edge_vis.sim.profile import FaultSpec, VehicleSpec
-from edge_vis.sim.runtime import VehicleEndpoint, endpoint_for
+from edge_vis.shell.relay import Runtime
+from edge_vis.tools.sim.profile import FaultSpec, VehicleSpec
+from edge_vis.tools.sim.runner import VehicleEndpoint, endpoint_for
 
 RELAY_ID = JausAddress(200, 1, 1)
 SUBSYSTEM = 121

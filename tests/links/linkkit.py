@@ -12,7 +12,7 @@ from typing import TypeVar
 
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import Packet
-from edge_vis.router import Deliver
+from edge_vis.routing.router import Deliver
 
 T = TypeVar("T")
 

@@ -15,13 +15,13 @@ from linkkit import Pty, collect, free_port, msg, run, until
 from edge_vis.cli import main
 from edge_vis.errors import ConfigError, PluginNotFoundError
 from edge_vis.jaus.address import BROADCAST, JausAddress
-from edge_vis.jaus.serial import frame
+from edge_vis.jaus.pcap import read_udp
+from edge_vis.jaus.serial_framing import frame
 from edge_vis.jaus.transport import pack_datagram, unpack_datagram
-from edge_vis.link import LinkUrl, create_link
-from edge_vis.mirror import Mirror
-from edge_vis.pcap import read_udp
-from edge_vis.router import Router
-from edge_vis.testing import MemoryLink, RouterNode
+from edge_vis.routing.link import LinkUrl, create_link
+from edge_vis.routing.router import Router
+from edge_vis.shell.mirror import Mirror
+from edge_vis.tools.testing import MemoryLink, RouterNode
 
 A = JausAddress(1, 1, 1)
 B = JausAddress(2, 1, 1)

@@ -15,11 +15,11 @@ from linkkit import ThrottledWire, collect, free_port, msg, run, until
 
 from edge_vis.errors import DecodeError
 from edge_vis.jaus.address import JausAddress
-from edge_vis.jaus.serial import frame
+from edge_vis.jaus.serial_framing import frame
 from edge_vis.jaus.transport import AckNak, pack_datagram, unpack_datagram
-from edge_vis.link import create_link
-from edge_vis.router import Router
-from edge_vis.testing import RouterNode
+from edge_vis.routing.link import create_link
+from edge_vis.routing.router import Router
+from edge_vis.tools.testing import RouterNode
 
 pytestmark = pytest.mark.serial
 

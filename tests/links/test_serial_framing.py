@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from edge_vis.jaus.address import JausAddress
-from edge_vis.jaus.serial import SerialDeframer, SerialError, SerialFrame, crc16, frame
+from edge_vis.jaus.serial_framing import SerialDeframer, SerialError, SerialFrame, crc16, frame
 from edge_vis.jaus.transport import AckNak, Packet
 
 CAPTURES = Path(__file__).resolve().parents[2] / ".." / "shared" / "jaus" / "captures.md"

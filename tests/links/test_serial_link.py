@@ -11,9 +11,9 @@ from linkkit import Pty, msg, run, until
 
 from edge_vis.errors import LinkError
 from edge_vis.jaus.address import JausAddress
-from edge_vis.jaus.serial import SerialDeframer, SerialFrame, frame
+from edge_vis.jaus.serial_framing import SerialDeframer, SerialFrame, frame
 from edge_vis.jaus.transport import Packet
-from edge_vis.link import Peer, create_link
+from edge_vis.routing.link import Peer, create_link
 from links.serial import SerialLink
 
 pytestmark = pytest.mark.serial

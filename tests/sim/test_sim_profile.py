@@ -8,11 +8,11 @@ import pytest
 
 from edge_vis.catalogue import default_catalogue
 from edge_vis.errors import ConfigError, DecodeError
-from edge_vis.jaus import serial as jserial
+from edge_vis.jaus import serial_framing as jserial
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import Packet, pack_datagram, unpack_datagram
-from edge_vis.sim.profile import load_profile, parse_profile
-from edge_vis.sim.runtime import corrupt_datagram, corrupt_frame
+from edge_vis.tools.sim.profile import load_profile, parse_profile
+from edge_vis.tools.sim.runner import corrupt_datagram, corrupt_frame
 
 PROFILES = Path(__file__).resolve().parents[2] / "profiles" / "sim"
 

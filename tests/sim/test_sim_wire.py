@@ -20,13 +20,13 @@ import pytest
 from conftest import spec
 
 from edge_vis.catalogue import default_catalogue
-from edge_vis.jaus import serial as jserial
+from edge_vis.jaus import serial_framing as jserial
 from edge_vis.jaus.address import BROADCAST, JausAddress
 from edge_vis.jaus.fragments import Reassembler
 from edge_vis.jaus.transport import AckNak, DataFlags, Packet, pack_datagram, unpack_datagram
-from edge_vis.sim.images import camera_frame
-from edge_vis.sim.profile import SimProfile
-from edge_vis.sim.runtime import PtyVehicle, Simulation, UdpVehicle
+from edge_vis.tools.sim.images import camera_frame
+from edge_vis.tools.sim.profile import SimProfile
+from edge_vis.tools.sim.runner import PtyVehicle, Simulation, UdpVehicle
 
 ME = JausAddress(200, 1, 1)
 CAT = default_catalogue()

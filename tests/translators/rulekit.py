@@ -27,10 +27,8 @@ from edge_vis.catalogue import default_catalogue
 from edge_vis.codec.types import Enum, FieldType, List, Record, Variant
 from edge_vis.dds import model
 from edge_vis.dds.convert import converter_for
-from edge_vis.engine.actions import Command, Publish
 from edge_vis.jaus.address import JausAddress
-from edge_vis.translator import TranslatorContext, VehicleView
-from translators.generic import (
+from edge_vis.kit import (
     CommandRule,
     Const,
     Each,
@@ -39,11 +37,13 @@ from translators.generic import (
     RuleTranslator,
     get_path,
 )
+from edge_vis.kit.actions import Command, Publish
+from edge_vis.kit.contract import TranslatorContext, VehicleView
 
 CAT = default_catalogue()
 VIEW = VehicleView("veh1", 150, name="Veh", address=JausAddress(150, 1, 1), online=True)
 CTX = TranslatorContext(now=10.0, timestamp_ms=1_700_000_000_123,
-                        relay_id=JausAddress(42, 1, 1), vehicle=VIEW)
+                        relay_id=JausAddress(42, 1, 1), vehicle=VIEW, catalogue=CAT)
 TYPES: dict[str, Any] = {t.__name__: t for t in model.STRUCTS}
 
 
@@ -207,7 +207,7 @@ class Relay:
         return out + self.drain()
 
     def drain(self) -> list[Any]:
-        from edge_vis.engine.actions import SendMessage
+        from edge_vis.kit.actions import SendMessage
 
         actions = self.engine.drain_actions()
         for action in actions:
@@ -217,7 +217,7 @@ class Relay:
         return actions
 
     def sent(self, name: str) -> list[Any]:
-        from edge_vis.engine.actions import SendMessage
+        from edge_vis.kit.actions import SendMessage
 
         return [a for a in self.actions if isinstance(a, SendMessage) and a.name == name]
 

@@ -6,9 +6,9 @@ from typing import Any
 
 import pytest
 
-from edge_vis.engine.actions import Publish
 from edge_vis.jaus.address import JausAddress
-from edge_vis.translator import TranslatorContext, VehicleView
+from edge_vis.kit.actions import Publish
+from edge_vis.kit.contract import TranslatorContext, VehicleView
 from translators.core import CoreTranslator
 
 BASE = VehicleView(

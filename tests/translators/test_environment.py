@@ -9,7 +9,7 @@ import pytest
 from rulekit import CAT, CTX, TYPES, check_report_rule, same
 
 from edge_vis.dds.convert import converter_for
-from edge_vis.engine.actions import Publish
+from edge_vis.kit.actions import Publish
 from translators.environment import CHUNK_BYTES, EnvironmentTranslator
 
 RULES = EnvironmentTranslator.report_rules

@@ -11,13 +11,14 @@ import pytest
 from rulekit import CAT, CTX, TYPES, command_sample, report
 
 from edge_vis.catalogue import Catalogue
+from edge_vis.catalogue.jsidl import load_jsidl
 from edge_vis.config import TranslatorSelection, from_mapping
 from edge_vis.dds.convert import converter_for
-from edge_vis.engine.actions import Command, Publish
 from edge_vis.engine.manager import TranslationManager
-from edge_vis.errors import ConfigError, PluginLoadError
-from edge_vis.jsidl import load_jsidl
-from translators.generic import GenericTranslator, code_of, get_path, parse_mappings
+from edge_vis.errors import ConfigError
+from edge_vis.kit import code_of, get_path
+from edge_vis.kit.actions import Command, Publish
+from translators.generic import GenericTranslator, parse_mappings
 
 #: a user's own JSIDL: a water quality probe (also used by the end-to-end test)
 JSIDL = (Path(__file__).parent / "WaterQuality.xml").read_text()
@@ -100,7 +101,7 @@ def test_bad_mapping_stops_the_relay_at_start() -> None:
 
 def test_options_for_a_translator_without_options_are_refused() -> None:
     prof = from_mapping({"translators": {"ugv": {"speed": 3}}})
-    with pytest.raises(PluginLoadError, match=r"\[translators.ugv\]"):
+    with pytest.raises(ConfigError, match=r"translators.ugv: this translator takes no options"):
         TranslationManager.from_selection(prof.translators)
 
 

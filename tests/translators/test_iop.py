@@ -8,7 +8,7 @@ import pytest
 from rulekit import CAT, CTX, TYPES, check_command_rule, check_report_rule, command_sample
 
 from edge_vis.dds.convert import converter_for
-from translators.generic import CommandRule
+from edge_vis.kit import CommandRule
 from translators.iop import IopTranslator
 
 TR = IopTranslator

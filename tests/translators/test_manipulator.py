@@ -8,8 +8,8 @@ from typing import Any
 import pytest
 from rulekit import CAT, CTX, check_command_rule, check_report_rule, command_sample, encode
 
-from edge_vis.engine.actions import Command
-from translators.generic import CommandRule
+from edge_vis.kit import CommandRule
+from edge_vis.kit.actions import Command
 from translators.manipulator import REVOLUTE_LIMIT, ManipulatorTranslator
 
 TR = ManipulatorTranslator

@@ -12,15 +12,15 @@ from typing import Any
 import pytest
 
 from edge_vis.catalogue import default_catalogue
-from edge_vis.engine.actions import Command, Publish
 from edge_vis.jaus.address import JausAddress
-from edge_vis.translator import TranslatorContext, VehicleView
+from edge_vis.kit.actions import Command, Publish
+from edge_vis.kit.contract import TranslatorContext, VehicleView
 from translators.mobility import MobilityTranslator
 
 CAT = default_catalogue()
 VIEW = VehicleView("ugv1", 150, name="UGV", address=JausAddress(150, 1, 1), online=True)
 CTX = TranslatorContext(now=10.0, timestamp_ms=1_700_000_000_123, relay_id=JausAddress(42, 1, 1),
-                        vehicle=VIEW)
+                        vehicle=VIEW, catalogue=CAT)
 NAN = math.nan
 
 # (payload hex from captures-jauspp.md / captures.md, topic, expected sample fields)

@@ -16,8 +16,8 @@ import pytest
 from rulekit import CAT, CTX, TYPES, check_command_rule, check_report_rule, command_sample
 
 from edge_vis.dds.convert import converter_for
-from edge_vis.engine.actions import Command, Publish
 from edge_vis.errors import ConfigError
+from edge_vis.kit.actions import Command, Publish
 from translators.mobility import (
     COMMAND_RULES,
     OPTIONAL_REPORTS,

@@ -11,8 +11,8 @@ import pytest
 from rulekit import CAT, CTX, TYPES
 
 from edge_vis.dds.convert import converter_for
-from edge_vis.engine.actions import Command, Publish
 from edge_vis.jaus.transport import JTS_MAX_PAYLOAD
+from edge_vis.kit.actions import Command, Publish
 from translators.mobility import (
     DEFAULT_SPEED,
     ELEMENTS_PER_SET,

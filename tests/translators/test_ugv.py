@@ -8,8 +8,8 @@ from typing import Any
 import pytest
 from rulekit import CAT, CTX, check_command_rule, check_report_rule, command_sample
 
-from edge_vis.commands.mappings import collect
-from translators.generic import CommandRule
+from edge_vis.cli.mappings import collect
+from edge_vis.kit import CommandRule
 from translators.ugv import NOT_TRANSLATED, UgvTranslator
 
 TR = UgvTranslator

@@ -12,7 +12,7 @@ import pytest
 
 from edge_vis.config import RelayProfile, from_mapping
 from edge_vis.errors import ConfigError
-from edge_vis.runtime import Runtime
+from edge_vis.shell.relay import Runtime
 
 pytestmark = pytest.mark.udt
 udt = pytest.importorskip("links.udt")

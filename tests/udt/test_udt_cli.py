@@ -16,7 +16,7 @@ pytest.importorskip("udt4py")
 
 from udt_helpers import sha, wait_for
 
-from edge_vis.commands.send_image import Progress, parse_rate
+from edge_vis.cli.send_image import Progress, parse_rate
 from links.udt import UdtLink
 
 pytestmark = pytest.mark.udt

@@ -7,7 +7,7 @@ run time. 337 messages in all: core 57, mobility 46, environment 35, manipulator
 
 A catalogue is keyed by message code, so the definitions of another version that
 reuse a code with a different layout are left out. Load the JSIDL of that version
-(``edge_vis.jsidl.load_jsidl``) to talk to a peer that uses one of them.
+(``edge_vis.catalogue.jsidl.load_jsidl``) to talk to a peer that uses one of them.
 
 Versions kept: core 1.1 (every core 1.0 message has the same layout and lists the
 1.0 services too), mobility 1.0, environmentSensing 1.0, manipulator 2.0, ugv 1.0, the

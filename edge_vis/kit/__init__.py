@@ -1,0 +1,72 @@
+"""The translation kit: the public API a translator is written in. No I/O.
+
+A translator plugin imports from here and from nothing else of edge-vis::
+
+    from edge_vis.kit import CommandRule, From, Put, ReportRule, RuleTranslator
+
+* the contract (:mod:`edge_vis.kit.contract`): :class:`Translator` with its hooks,
+  :class:`TranslatorContext` (time, relay, vehicles, live catalogue), :class:`VehicleView`,
+  :class:`ReportSpec`, :func:`derive_vehicle_id`, :class:`JausAddress`;
+* the actions a hook returns (:mod:`edge_vis.kit.actions`): :class:`Publish`,
+  :class:`Command`, :class:`DeclareVehicle` (the engine's own :class:`SendMessage` and
+  :class:`ShutdownComplete` live beside them);
+* the rule vocabulary (:mod:`edge_vis.kit.rules`): report and command tables that
+  :class:`RuleTranslator` runs and ``edge-vis mappings`` prints.
+
+Control, events, throttling and the dead-man stop are the engine's: a translator only maps.
+"""
+
+from __future__ import annotations
+
+from edge_vis.errors import ConfigError
+from edge_vis.jaus.address import JausAddress
+from edge_vis.kit.actions import (
+    Action,
+    Command,
+    DeclareVehicle,
+    Publish,
+    SendMessage,
+    ShutdownComplete,
+)
+from edge_vis.kit.contract import (
+    STATUS_NAMES,
+    ReportSpec,
+    Translator,
+    TranslatorContext,
+    VehicleView,
+    derive_vehicle_id,
+)
+from edge_vis.kit.rules import (
+    NAN,
+    Build,
+    CommandRule,
+    Computed,
+    Const,
+    Each,
+    From,
+    Put,
+    PutEach,
+    ReportRule,
+    RuleTranslator,
+    Spec,
+    clamp,
+    code_of,
+    declarations,
+    describe_rules,
+    extract,
+    flags,
+    get_path,
+    label,
+    number,
+    put,
+    set_path,
+)
+
+__all__ = [
+    "NAN", "STATUS_NAMES", "Action", "Build", "Command", "CommandRule", "Computed",
+    "ConfigError", "Const", "DeclareVehicle", "Each", "From", "JausAddress", "Publish", "Put",
+    "PutEach", "ReportRule", "ReportSpec", "RuleTranslator", "SendMessage", "ShutdownComplete",
+    "Spec", "Translator", "TranslatorContext", "VehicleView", "clamp", "code_of",
+    "declarations", "derive_vehicle_id", "describe_rules", "extract", "flags", "get_path",
+    "label", "number", "put", "set_path",
+]

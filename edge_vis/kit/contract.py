@@ -1,0 +1,174 @@
+"""The translator contract: pure mappings between JAUS messages and DDS samples. No I/O.
+
+A translator is a plugin (entry-point group ``edge_vis.translators``) that declares, as
+class attributes, what it deals with, so conflicts are found at start-up:
+
+* ``messages`` - names of the JAUS messages it consumes (reports, usually);
+* ``reports`` - :class:`ReportSpec` entries: the reports it wants delivered, how to query
+  them, from which service and at which rate. The engine creates JAUS events for them (or
+  polls when the vehicle ignores events);
+* ``publishes`` / ``subscribes`` - the DDS topics it writes and reads;
+* ``controlled_services`` - service URIs it sends commands to; the engine takes control of
+  the components offering them while an operator holds the vehicle.
+
+Call order (one translator instance per engine)::
+
+    __init__()  ->  configure(table)?  ->  ( on_message | on_sample | on_vehicle )*
+
+``configure`` receives the profile's ``[translators.NAME]`` table when there is one (the
+default refuses any table: a translator without options says so); ``describe`` gives the
+rows of the mapping table (``edge-vis mappings``; the default lists ``messages``).
+
+Every hook receives a read-only :class:`TranslatorContext` and returns a list of actions
+(:class:`~edge_vis.kit.actions.Publish`, :class:`~edge_vis.kit.actions.Command`,
+:class:`~edge_vis.kit.actions.DeclareVehicle`). A translator never touches sockets,
+DDS or the clock; the context carries the time and the live message catalogue (with the
+profile's own JSIDL), so a translator needs nothing from the engine's internals.
+"""
+
+from __future__ import annotations
+
+import re
+from abc import ABC
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+from edge_vis.errors import ConfigError
+from edge_vis.jaus.address import JausAddress
+from edge_vis.kit.actions import Action
+
+#: Management states (ReportStatus.status), AS5710 Management service.
+STATUS_NAMES: Mapping[int, str] = {
+    0: "INITIALIZE", 1: "READY", 2: "STANDBY", 3: "SHUTDOWN", 4: "FAILURE", 5: "EMERGENCY",
+}
+
+
+@dataclass(frozen=True, slots=True)
+class ReportSpec:
+    """A report a translator wants: ``query`` (with ``query_fields``) asks ``service`` for
+    ``report``. ``rate`` is the default rate in Hz (profiles override it per report);
+    ``on_change`` asks for an every-change event instead of a periodic one."""
+
+    report: str
+    query: str
+    service: str
+    query_fields: Mapping[str, Any] = field(default_factory=dict)
+    rate: float = 1.0
+    on_change: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class VehicleView:
+    """What translators may know about a vehicle (a snapshot; changing it changes nothing).
+
+    ``state`` is the most severe management status of its components (``"READY"``,
+    ``"EMERGENCY"``...), ``"UNKNOWN"`` before any ReportStatus, ``"OFFLINE"`` when lost.
+    ``services`` are ``(uri, version)`` pairs over all components.
+    """
+
+    vehicle_id: str
+    subsystem: int
+    name: str = ""
+    vehicle_type: str = ""
+    address: JausAddress | None = None
+    services: tuple[tuple[str, str], ...] = ()
+    components: Mapping[JausAddress, tuple[tuple[str, str], ...]] = field(default_factory=dict)
+    online: bool = False
+    state: str = "UNKNOWN"
+    link: str = ""
+    last_seen: float | None = None
+    last_seen_ms: int = 0
+    controller: str = ""
+    controller_authority: int = 0
+    jaus_control: str = "none"
+    rejected_commands: int = 0
+    last_rejection: str = ""
+    notes: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class TranslatorContext:
+    """Read-only context of one call: the time, the relay and the vehicle concerned.
+
+    ``now`` is the engine's clock (seconds); ``timestamp_ms`` is wall-clock milliseconds
+    since the Unix epoch, for sample timestamps. ``source`` is the JAUS sender of the
+    message being translated, if any.
+    """
+
+    now: float
+    timestamp_ms: int
+    relay_id: JausAddress
+    vehicle: VehicleView | None = None
+    vehicles: Mapping[str, VehicleView] = field(default_factory=dict)
+    source: JausAddress | None = None
+    #: the relay's message catalogue (``edge_vis.catalogue.Catalogue``: shipped sets,
+    #: message-set plugins and the profile's JSIDL), for encoding or looking up messages
+    catalogue: Any = None
+
+
+class Translator(ABC):  # noqa: B024 - every hook has a harmless default
+    """Base class of translator plugins; override the hooks you need.
+
+    Subclasses are named ``<ServiceSet>Translator`` and registered under the entry-point
+    name they expose as :attr:`name`.
+    """
+
+    name: ClassVar[str] = ""
+    messages: ClassVar[tuple[str, ...]] = ()
+    reports: ClassVar[tuple[ReportSpec, ...]] = ()
+    publishes: ClassVar[tuple[str, ...]] = ()
+    subscribes: ClassVar[tuple[str, ...]] = ()
+    controlled_services: ClassVar[tuple[str, ...]] = ()
+    #: DDS topics of this translator's own types (``edge_vis.dds.topics.TopicSpec``), for
+    #: custom translators whose data fits none of the shipped model's topics
+    topic_types: ClassVar[tuple[Any, ...]] = ()
+
+    def on_message(
+        self, name: str, fields: Mapping[str, Any], ctx: TranslatorContext
+    ) -> list[Action]:
+        """A JAUS message listed in :attr:`messages` arrived from ``ctx.vehicle``.
+
+        Reports carried inside Event messages arrive here already unwrapped.
+        """
+        return []
+
+    def on_sample(
+        self, topic: str, sample: Mapping[str, Any], ctx: TranslatorContext
+    ) -> list[Action]:
+        """A sample of a topic listed in :attr:`subscribes` arrived (``ctx.vehicle`` is the
+        vehicle named by the sample's ``vehicle_id``, or None if unknown)."""
+        return []
+
+    def configure(self, options: Mapping[str, Any], source: str = "") -> None:
+        """Take the profile's ``[translators.NAME]`` table; raise ConfigError naming every
+        bad key. The default takes no options."""
+        raise ConfigError([(source, f"translators.{self.name or type(self).__name__}",
+                            "this translator takes no options")])
+
+    def describe(self) -> list[dict[str, Any]]:
+        """Rows of the mapping table, one per JAUS message (see ``edge-vis mappings``)."""
+        queries = {spec.report: spec.query for spec in self.reports}
+        return [{"translator": self.name, "direction": "jaus->dds", "message": message,
+                 "topic": ", ".join(self.publishes), "query": queries.get(message, ""),
+                 "service": "", "rate": None, "fields": [],
+                 "doc": "declared message and topics only"}
+                for message in self.messages]
+
+    def on_vehicle(self, change: str, ctx: TranslatorContext) -> list[Action]:
+        """The engine's view of ``ctx.vehicle`` changed.
+
+        ``change`` is one of ``"identified"`` (identity or services learnt),
+        ``"online"``, ``"offline"``, ``"status"`` (management state) and ``"control"``
+        (operator arbitration or JAUS access control).
+        """
+        return []
+
+
+_UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
+
+
+def derive_vehicle_id(name: str, subsystem: int) -> str:
+    """A stable vehicle ID from the reported name and subsystem: ``SimulatedVehicle-126``."""
+    clean = _UNSAFE.sub("_", name.strip()).strip("_")
+    return f"{clean or 'jaus'}-{subsystem}"

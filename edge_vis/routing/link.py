@@ -1,0 +1,426 @@
+"""The link contract: how a transport plugin carries JAUS packets. No I/O here.
+
+A link is chosen by a URL whose scheme is the name of its entry point in the group
+``edge_vis.links`` (``udp://0.0.0.0:3794?multicast=239.255.0.1``,
+``serial:///dev/ttyUSB0?baud=57600``, ``loop://bench``). Query options configure the
+plugin; every link understands ``mtu`` (largest payload per packet, bytes) and
+``bandwidth`` (bits per second the medium carries, for pacing).
+
+Life cycle (the runtime is one asyncio loop; every call is made from it)::
+
+    Link(url, name=...)            constructed: options validated, nothing opened
+        │
+        ▼
+    await open(deliver, on_state)  resources acquired; state "open"
+        │
+        ├──► send(packets, peer)           any number of times, never blocks; peer None = broadcast
+        ├──◄ deliver(name, peer, packets)  called by the link for every good datagram / frame
+        └──◄ on_state(name, state, reason) "down" / "open" when the medium goes and comes back
+        │
+        ▼
+    await close()                  idempotent; afterwards send() counts a drop
+
+Framing and protocol logic live in sans-I/O modules (:mod:`edge_vis.jaus.transport`,
+:mod:`edge_vis.jaus.serial_framing`); a link is the thin adapter that moves their bytes. A link
+never raises out of ``send`` or its receive path: bad input is counted (``malformed``),
+I/O trouble becomes state ``down`` plus a counted drop, and :meth:`Link.stats` returns
+a :class:`LinkStats` snapshot for health reporting.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+from abc import ABC, abstractmethod
+from collections import Counter
+from collections.abc import Callable, Hashable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import ClassVar
+from urllib.parse import parse_qsl, urlsplit
+
+from edge_vis.errors import ConfigError
+from edge_vis.jaus.transport import JTS_MAX_PAYLOAD, Packet
+
+log = logging.getLogger(__name__)
+
+Peer = Hashable
+"""A link-level address: ``(ip, port)`` for UDP, the device path for serial, a name for loop."""
+
+DeliverCallback = Callable[[str, Peer, list[Packet]], None]
+StateCallback = Callable[[str, str, str], None]
+TapCallback = Callable[[str, str, Peer, Sequence[Packet]], None]
+"""``tap(link_name, direction, peer, packets)`` with direction ``"in"`` or ``"out"``."""
+
+#: peers tracked per link before the least recently seen is forgotten (bounds memory
+#: when a noisy network sends from many source addresses)
+MAX_TRACKED_PEERS = 256
+
+
+@dataclass(frozen=True, slots=True)
+class LinkUrl:
+    """A parsed link URL. ``options`` holds the query string, last value wins."""
+
+    scheme: str
+    host: str
+    port: int | None
+    path: str
+    options: Mapping[str, str]
+    text: str
+
+    @classmethod
+    def parse(cls, text: str) -> LinkUrl:
+        """Split ``scheme://host:port/path?k=v&...``; raise :class:`ConfigError` if malformed."""
+        parts = urlsplit(text)
+        if not parts.scheme or "://" not in text:
+            raise ConfigError([("", "url", f"{text!r} is not a link URL (scheme://...)")])
+        try:
+            port = parts.port
+        except ValueError as exc:
+            raise ConfigError([("", "url", f"{text!r}: {exc}")]) from None
+        host = parts.hostname or ""
+        if parts.scheme == "loop":  # loop://Name keeps the case the user wrote
+            host = parts.netloc
+        return cls(
+            scheme=parts.scheme.lower(),
+            host=host,
+            port=port,
+            path=parts.path,
+            options=dict(parse_qsl(parts.query, keep_blank_values=True)),
+            text=text,
+        )
+
+    def __str__(self) -> str:
+        return self.text
+
+
+@dataclass(frozen=True, slots=True)
+class PeerStats:
+    """Traffic with one peer of a link."""
+
+    bytes_in: int = 0
+    bytes_out: int = 0
+    messages_in: int = 0
+    messages_out: int = 0
+    malformed: int = 0
+
+    def as_dict(self) -> dict[str, int]:
+        """Plain values (for JSON output)."""
+        return {
+            "bytes_in": self.bytes_in, "bytes_out": self.bytes_out,
+            "messages_in": self.messages_in, "messages_out": self.messages_out,
+            "malformed": self.malformed,
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class LinkStats:
+    """A snapshot of one link's health counters (all totals since open)."""
+
+    name: str
+    url: str
+    state: str
+    mtu: int
+    bandwidth_bps: float | None
+    bytes_in: int = 0
+    bytes_out: int = 0
+    messages_in: int = 0
+    messages_out: int = 0
+    malformed: int = 0
+    drops: Mapping[str, int] = field(default_factory=dict)
+    queue_depth: int = 0  # bytes accepted but not yet written
+    peers: Mapping[str, PeerStats] = field(default_factory=dict)
+    last_error: str = ""
+
+    def as_dict(self) -> dict[str, object]:
+        """Plain values (for JSON output)."""
+        return {
+            "name": self.name, "url": self.url, "state": self.state, "mtu": self.mtu,
+            "bandwidth_bps": self.bandwidth_bps, "bytes_in": self.bytes_in,
+            "bytes_out": self.bytes_out, "messages_in": self.messages_in,
+            "messages_out": self.messages_out, "malformed": self.malformed,
+            "drops": dict(self.drops), "queue_depth": self.queue_depth,
+            "peers": {k: v.as_dict() for k, v in self.peers.items()},
+            "last_error": self.last_error,
+        }
+
+
+class _PeerCounters:
+    __slots__ = ("bytes_in", "bytes_out", "malformed", "messages_in", "messages_out")
+
+    def __init__(self) -> None:
+        self.bytes_in = self.bytes_out = self.messages_in = self.messages_out = 0
+        self.malformed = 0
+
+
+class LinkCounters:
+    """Mutable counters a link updates on its hot path; :meth:`Link.stats` snapshots them."""
+
+    def __init__(self) -> None:
+        self.bytes_in = self.bytes_out = 0
+        self.messages_in = self.messages_out = 0
+        self.malformed = 0
+        self.drops: Counter[str] = Counter()
+        self.last_error = ""
+        self._peers: dict[Peer, _PeerCounters] = {}
+
+    def peer(self, peer: Peer) -> _PeerCounters:
+        """The counters of ``peer`` (created on first use, bounded in number)."""
+        counters = self._peers.get(peer)
+        if counters is None:
+            if len(self._peers) >= MAX_TRACKED_PEERS:
+                del self._peers[next(iter(self._peers))]
+                self.drops["peer counters forgotten: table full"] += 1
+            counters = self._peers[peer] = _PeerCounters()
+        return counters
+
+    def received(self, peer: Peer, nbytes: int, nmessages: int) -> None:
+        self.bytes_in += nbytes
+        self.messages_in += nmessages
+        p = self.peer(peer)
+        p.bytes_in += nbytes
+        p.messages_in += nmessages
+
+    def sent(self, peer: Peer, nbytes: int, nmessages: int) -> None:
+        self.bytes_out += nbytes
+        self.messages_out += nmessages
+        p = self.peer(peer)
+        p.bytes_out += nbytes
+        p.messages_out += nmessages
+
+    def bad_input(self, peer: Peer | None) -> None:
+        self.malformed += 1
+        if peer is not None:
+            self.peer(peer).malformed += 1
+
+    def dropped(self, reason: str, count: int = 1) -> None:
+        self.drops[reason] += count
+
+    def peers(self) -> dict[str, PeerStats]:
+        return {
+            format_peer(k): PeerStats(v.bytes_in, v.bytes_out, v.messages_in, v.messages_out,
+                                      v.malformed)
+            for k, v in self._peers.items()
+        }
+
+
+_NUMBERS = re.compile(r"0x[0-9A-Fa-f]+|\d+")
+
+
+def drop_reason(reason: str) -> str:
+    """The kind of a decode error, without its values: ``data size N exceeds the N bytes
+    left``. Counters are keyed by it, so they stay few however varied the bad input."""
+    return _NUMBERS.sub("N", reason.split(" (")[0])[:80]
+
+
+def format_peer(peer: Peer | None) -> str:
+    """``127.0.0.2:3794`` for an (ip, port) tuple; ``str()`` otherwise; ``*`` for broadcast."""
+    if peer is None:
+        return "*"
+    if isinstance(peer, tuple) and len(peer) >= 2:
+        return f"{peer[0]}:{peer[1]}"
+    return str(peer)
+
+
+class Link(ABC):
+    """Base class of every link plugin (see the module docstring for the life cycle).
+
+    Subclasses set ``scheme``, list their extra query options in ``options`` and
+    implement :meth:`_open`, :meth:`_send` and :meth:`_close`. They report received
+    traffic through :meth:`_received` and bad input through :meth:`_malformed`.
+    """
+
+    scheme: ClassVar[str] = ""
+    #: query options this plugin understands beyond the common ones
+    options: ClassVar[frozenset[str]] = frozenset()
+    common_options: ClassVar[frozenset[str]] = frozenset({"mtu", "bandwidth", "name"})
+    #: bytes the medium adds to each packet's data size (for pacing and budgets)
+    overhead: ClassVar[int] = 0
+
+    def __init__(self, url: str | LinkUrl, *, name: str | None = None) -> None:
+        self.url = url if isinstance(url, LinkUrl) else LinkUrl.parse(url)
+        unknown = set(self.url.options) - self.options - self.common_options
+        if unknown:
+            known = ", ".join(sorted(self.options | self.common_options))
+            raise ConfigError([("", "url", f"{self.url}: unknown option(s) "
+                                f"{', '.join(sorted(unknown))} (known: {known})")])
+        self.name = name or self.url.options.get("name") or str(self.url)
+        self.mtu: int = self.int_option("mtu", JTS_MAX_PAYLOAD, low=16, high=0xFFFF - 16)
+        bandwidth = self.url.options.get("bandwidth")
+        self.bandwidth_bps: float | None = (
+            float(self.int_option("bandwidth", 0, low=1, high=10**12)) if bandwidth else None
+        )
+        self.counters = LinkCounters()
+        self.state = "new"
+        self._deliver: DeliverCallback | None = None
+        self._on_state: StateCallback | None = None
+        self._taps: list[TapCallback] = []
+
+    # -- options -----------------------------------------------------------------------
+    def int_option(self, key: str, default: int, *, low: int, high: int) -> int:
+        """An integer query option within ``[low, high]``, or ``default`` when absent."""
+        text = self.url.options.get(key)
+        if text is None or text == "":
+            return default
+        try:
+            value = int(text, 0)
+        except ValueError:
+            raise ConfigError([("", f"url.{key}", f"{self.url}: {key}={text!r} is not an "
+                                "integer")]) from None
+        if not low <= value <= high:
+            raise ConfigError([("", f"url.{key}", f"{self.url}: {key}={value} outside "
+                                f"{low}..{high}")])
+        return value
+
+    def bool_option(self, key: str, default: bool) -> bool:
+        """A boolean query option (1/0, true/false, yes/no, on/off)."""
+        text = self.url.options.get(key)
+        if text is None or text == "":
+            return default
+        lowered = text.lower()
+        if lowered in ("1", "true", "yes", "on"):
+            return True
+        if lowered in ("0", "false", "no", "off"):
+            return False
+        raise ConfigError([("", f"url.{key}", f"{self.url}: {key}={text!r} is not a boolean")])
+
+    # -- life cycle --------------------------------------------------------------------
+    async def open(self, deliver: DeliverCallback, on_state: StateCallback | None = None) -> None:
+        """Acquire the medium; from now on received packets go to ``deliver``.
+
+        Raises :class:`~edge_vis.errors.LinkError` when the medium cannot be opened.
+        """
+        if self.state != "new":
+            raise RuntimeError(f"link {self.name} already opened (state {self.state})")
+        self._deliver = deliver
+        self._on_state = on_state
+        await self._open()
+        if self.state == "new":
+            self.state = "open"
+
+    def send(self, packets: Sequence[Packet], peer: Peer | None = None) -> None:
+        """Queue ``packets`` for ``peer`` (``None``: broadcast). Never blocks or raises."""
+        if self.state not in ("open", "down"):
+            self.counters.dropped("link closed", len(packets))
+            return
+        for tap in self._taps:
+            tap(self.name, "out", peer, packets)
+        self._send(packets, peer)
+
+    async def close(self) -> None:
+        """Release the medium; safe to call more than once."""
+        if self.state in ("closed", "new"):
+            self.state = "closed"
+            return
+        self.state = "closed"
+        await self._close()
+
+    def add_tap(self, tap: TapCallback) -> None:
+        """Also call ``tap`` with every packet received or sent (for a traffic mirror)."""
+        self._taps.append(tap)
+
+    @property
+    def queue_depth(self) -> int:
+        """Bytes accepted by :meth:`send` but not yet written to the medium."""
+        return 0
+
+    def stats(self) -> LinkStats:
+        """A snapshot of the counters."""
+        c = self.counters
+        return LinkStats(
+            name=self.name, url=str(self.url), state=self.state, mtu=self.mtu,
+            bandwidth_bps=self.bandwidth_bps, bytes_in=c.bytes_in, bytes_out=c.bytes_out,
+            messages_in=c.messages_in, messages_out=c.messages_out, malformed=c.malformed,
+            drops=dict(c.drops), queue_depth=self.queue_depth, peers=c.peers(),
+            last_error=c.last_error,
+        )
+
+    # -- for subclasses ----------------------------------------------------------------
+    @abstractmethod
+    async def _open(self) -> None:
+        """Acquire the medium."""
+
+    @abstractmethod
+    def _send(self, packets: Sequence[Packet], peer: Peer | None) -> None:
+        """Write or queue packets; count what could not be sent."""
+
+    @abstractmethod
+    async def _close(self) -> None:
+        """Release the medium."""
+
+    def _received(self, peer: Peer, packets: list[Packet], nbytes: int, *,
+                  tapped: bool = False) -> None:
+        """Count and hand good packets to the runtime.
+
+        ``tapped``: the subclass already showed each datagram to the taps (see
+        :meth:`_tap_in`), because it delivers several datagrams in one call.
+        """
+        self.counters.received(peer, nbytes, len(packets))
+        if not tapped:
+            self._tap_in(peer, packets)
+        if self._deliver is not None:
+            self._deliver(self.name, peer, packets)
+
+    def _tap_in(self, peer: Peer, packets: list[Packet]) -> None:
+        """Show one received datagram's packets to the taps."""
+        for tap in self._taps:
+            tap(self.name, "in", peer, packets)
+
+    def _malformed(self, peer: Peer | None, reason: str, data: bytes) -> None:
+        """Count and log bad input (the log is DEBUG: a noisy radio must not flood it)."""
+        self.counters.bad_input(peer)
+        self.counters.dropped(f"malformed: {drop_reason(reason)}")
+        log.debug("%s: dropped %d bytes from %s: %s", self.name, len(data), format_peer(peer),
+                  reason)
+
+    def _set_state(self, state: str, reason: str = "") -> None:
+        """Record an up/down change and tell the runtime."""
+        if state == self.state or self.state == "closed":
+            return
+        self.state = state
+        if reason:
+            self.counters.last_error = reason
+        log.info("link %s is %s%s", self.name, state, f": {reason}" if reason else "")
+        if self._on_state is not None:
+            self._on_state(self.name, state, reason)
+
+
+def link_class(scheme: str) -> type[Link]:
+    """The :class:`Link` subclass registered under ``scheme`` in ``edge_vis.links``.
+
+    Raises :class:`~edge_vis.errors.PluginNotFoundError` (listing what is installed) or
+    :class:`~edge_vis.errors.PluginLoadError` (import failed, e.g. a missing optional
+    dependency such as pyserial, or the entry point is not a Link).
+    """
+    from edge_vis import plugins
+
+    cls: type[Link] = plugins.load(plugins.LINKS, scheme, Link)
+    return cls
+
+
+def create_link(url: str, *, name: str | None = None) -> Link:
+    """Construct (not open) the link for ``url``; the scheme selects the plugin."""
+    parsed = LinkUrl.parse(url)
+    return link_class(parsed.scheme)(parsed, name=name)
+
+
+def parse_peers(text: str, default_port: int) -> list[tuple[str, int]]:
+    """``"10.0.0.5:3794,10.0.0.6"`` → ``[("10.0.0.5", 3794), ("10.0.0.6", default_port)]``."""
+    peers = []
+    for item in filter(None, (part.strip() for part in text.split(","))):
+        host, sep, port = item.rpartition(":")
+        if not sep:
+            host, port = item, str(default_port)
+        try:
+            peers.append((host.strip("[]"), int(port)))
+        except ValueError:
+            raise ConfigError([("", "url.peers", f"peer {item!r} is not host:port")]) from None
+    return peers
+
+
+def total_stats(stats: Iterable[LinkStats]) -> dict[str, int]:
+    """Sum of the traffic counters over several links (for a one-line summary)."""
+    out = Counter[str]()
+    for s in stats:
+        out.update(bytes_in=s.bytes_in, bytes_out=s.bytes_out, messages_in=s.messages_in,
+                   messages_out=s.messages_out, malformed=s.malformed)
+    return dict(out)

@@ -1,0 +1,670 @@
+"""The node-manager role: where each JAUS packet goes. No I/O, no clock.
+
+Every method takes ``now`` (seconds, any monotonic origin) and returns *actions* for the
+I/O shell to carry out: :class:`SendPackets` (write to a link), :class:`Deliver` (hand a
+whole message to a local component) and :class:`DeliveryFailed` (an ACK-requested send
+got no answer). The shell calls :meth:`Router.on_timer` at :meth:`Router.next_deadline`.
+
+Theory of operation
+-------------------
+*Address book.* Every packet received teaches the router that its source component lives
+behind ``(link, peer)``; a component not heard from yet is looked for where another
+component of its subsystem was heard. Learned entries expire after ``peer_timeout`` s of silence.
+Static entries (profile seeds, wildcards allowed, e.g. ``5.*.*`` → radio) answer when no
+learned entry exists; the most specific pattern wins.
+
+*Local components* are the relay's own JAUS ids. A packet addressed to one (or a
+broadcast matching one) is delivered up, after large-message reassembly.
+
+*Forwarding* between links happens only where the relay switch for that (from, to) link
+pair is on (off by default, as ``AllowRelay=0`` in the JAUS Toolset): a unicast goes to
+the link where its destination lives, an unknown unicast or a broadcast is fanned out to
+every relay-enabled link. Nothing is ever sent back out of the link it came from.
+
+*Sending* from a local component (:meth:`Router.send`) numbers the packet from that
+component's own counter (starting at 1), fragments it to the link MTU, and routes it:
+known destination → unicast; wildcard → broadcast on every link; unknown destination →
+broadcast with ACK requested (JTS behaviour: the owner's ACK teaches the route).
+
+*Duplicates* (redundant paths, radio retries) are dropped when ``(source, destination,
+sequence, data flags, payload hash)`` was seen within ``duplicate_window`` s; a duplicate that asks
+for an ACK is ACKed again, since our first ACK was evidently lost.
+
+*ACK/NAK.* ACK requests addressed to a local component are answered (empty payload, same
+sequence number and priority, ACK/NAK = 3). Our own ACK-requested sends are repeated
+after ``ack_timeout`` s up to ``ack_retries`` times, then reported as
+:class:`DeliveryFailed`. ACK and NAK packets are never delivered up.
+
+*Queues.* Each link has four FIFO queues, one per header priority. A link with a known
+bandwidth is paced by a byte budget refilled at that rate (cost = data size + the link's
+framing overhead); a link reported busy (:meth:`Router.set_busy`) holds everything.
+Queued packets leave highest priority first; when a link's queue exceeds its byte limit
+the oldest packet of the lowest non-empty priority is dropped and counted. On a link added
+with ``latest_wins`` a report, Event or query waiting at a low priority is replaced by a
+newer one of the same kind (:func:`edge_vis.routing.traffic.latest_wins_key`).
+
+State per link:   ``idle`` ─(budget spent / busy)→ ``backlogged`` ─(queue empty)→ ``idle``
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import Counter, deque
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field, replace
+
+from edge_vis.errors import EncodeError, LocalProtocolError
+from edge_vis.jaus.address import JausAddress
+from edge_vis.jaus.transport import JTS_MAX_PAYLOAD, AckNak, Broadcast, DataFlags, Packet
+from edge_vis.routing.link import Peer, format_peer
+from edge_vis.routing.traffic import LATEST_WINS_MAX_PRIORITY, latest_wins_key
+
+try:  # large-message support lives in its own module; routing works without it
+    from edge_vis.jaus.fragments import Reassembler, fragment
+except ImportError:  # pragma: no cover - seam for builds without edge_vis.jaus.fragments
+    Reassembler = None  # type: ignore[assignment,misc]
+    fragment = None  # type: ignore[assignment]
+
+log = logging.getLogger(__name__)
+
+_ACKS = (AckNak.ACK, AckNak.NAK)
+
+
+# -- actions ---------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class SendPackets:
+    """Write ``packets`` on link ``link`` to ``peer`` (``None``: broadcast on that link)."""
+
+    link: str
+    peer: Peer | None
+    packets: tuple[Packet, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Deliver:
+    """Hand a whole message to the local component ``packet.destination`` (or, for a
+    broadcast, to every local component it matches). ``link``/``peer`` say where it came
+    from (``None`` for a message between two local components)."""
+
+    packet: Packet
+    link: str | None
+    peer: Peer | None
+
+
+@dataclass(frozen=True, slots=True)
+class DeliveryFailed:
+    """An ACK-requested packet got no ACK after every retry."""
+
+    packet: Packet
+    reason: str
+
+
+Action = SendPackets | Deliver | DeliveryFailed
+
+
+# -- configuration and state -----------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class RouterConfig:
+    """Timers and bounds of the router (seconds / bytes)."""
+
+    duplicate_window: float = 2.0
+    ack_timeout: float = 0.1
+    ack_retries: int = 3
+    peer_timeout: float = 120.0
+    sweep_interval: float = 1.0
+    reassembly_timeout: float = 5.0
+    max_duplicates: int = 65536
+    #: learned addresses kept; past it the earliest learned is forgotten (counted)
+    max_routes: int = 4096
+
+
+@dataclass(slots=True)
+class Route:
+    """Where a JAUS address lives: ``link`` and the ``peer`` on it."""
+
+    link: str
+    peer: Peer | None
+    static: bool = False
+    seen: float = 0.0
+
+
+@dataclass(slots=True)
+class _LinkState:
+    name: str
+    mtu: int
+    bandwidth_bps: float | None
+    overhead: int
+    queue_limit: int
+    burst: float
+    tokens: float = 0.0
+    refilled: float | None = None
+    busy: bool = False
+    queued_bytes: int = 0
+    queues: tuple[deque[tuple[Peer | None, Packet, int]], ...] = field(
+        default_factory=lambda: tuple(deque() for _ in range(4))
+    )
+    drops: Counter[str] = field(default_factory=Counter)
+    sent: int = 0
+    latest_wins: bool = False
+
+    @property
+    def depth(self) -> int:
+        return sum(len(q) for q in self.queues)
+
+
+@dataclass(slots=True)
+class _Pending:
+    packet: Packet
+    link: str | None  # None: not yet routed (sent as broadcast on every link)
+    peer: Peer | None
+    deadline: float
+    tries: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class LinkQueueStats:
+    """Queue state of one link as the router sees it."""
+
+    depth: int
+    queued_bytes: int
+    busy: bool
+    sent: int
+    drops: dict[str, int]
+
+
+@dataclass(frozen=True, slots=True)
+class RouterStats:
+    """Counters of routing decisions (totals since start)."""
+
+    counters: dict[str, int]
+    links: dict[str, LinkQueueStats]
+    routes: int
+    pending_acks: int
+
+
+# -- the router ------------------------------------------------------------------------
+class Router:
+    """Sans-I/O JAUS node manager: address book, local delivery, relay, ACKs, queues."""
+
+    def __init__(
+        self, local: Iterable[JausAddress] = (), *, config: RouterConfig | None = None
+    ) -> None:
+        self.config = config or RouterConfig()
+        self._local: set[JausAddress] = set(local)
+        self._seq: dict[JausAddress, int] = {}
+        self._links: dict[str, _LinkState] = {}
+        self._relay: set[tuple[str, str]] = set()
+        self._learned: dict[JausAddress, Route] = {}
+        self._static: list[tuple[JausAddress, Route]] = []
+        self._seen: dict[tuple[int, int, int, int, int], float] = {}
+        self._seen_order: deque[tuple[float, tuple[int, int, int, int, int]]] = deque()
+        self._pending: dict[tuple[int, int], _Pending] = {}
+        self._next_sweep: float | None = None
+        self._reassembler = (
+            Reassembler(timeout=self.config.reassembly_timeout) if Reassembler else None
+        )
+        self.counters: Counter[str] = Counter()
+
+    # -- configuration -----------------------------------------------------------------
+    def add_local(self, address: JausAddress) -> None:
+        """Make ``address`` one of ours: messages to it are delivered up."""
+        if address.is_broadcast:
+            raise ValueError(f"a local component needs a concrete address, not {address}")
+        self._local.add(address)
+
+    def remove_local(self, address: JausAddress) -> None:
+        """Stop delivering to ``address``."""
+        self._local.discard(address)
+
+    @property
+    def local(self) -> frozenset[JausAddress]:
+        """The local component addresses."""
+        return frozenset(self._local)
+
+    def add_link(
+        self,
+        name: str,
+        *,
+        mtu: int = JTS_MAX_PAYLOAD,
+        bandwidth_bps: float | None = None,
+        overhead: int = 29,
+        queue_limit: int = 32768,
+        latest_wins: bool = False,
+    ) -> None:
+        """Register a link. ``overhead``: framing bytes added per packet on the medium
+        (29 for UDP/IP + version byte, about 18 for serial); ``queue_limit``: bytes held
+        while the link is backlogged before the lowest priority is dropped;
+        ``latest_wins``: a newer report or query replaces a queued older one."""
+        # a budget that may go negative: one packet of any size can always leave, and the
+        # burst stays small (50 ms of the link) so a slow radio is not flooded at once
+        burst = max(64.0, (bandwidth_bps or 0.0) / 8 * 0.05)
+        self._links[name] = _LinkState(
+            name, mtu, bandwidth_bps, overhead, queue_limit, burst, tokens=burst,
+            latest_wins=latest_wins,
+        )
+
+    def remove_link(self, name: str) -> None:
+        """Forget a link, its routes, relay switches and queue."""
+        self._links.pop(name, None)
+        self._relay = {pair for pair in self._relay if name not in pair}
+        self._learned = {a: r for a, r in self._learned.items() if r.link != name}
+        self._static = [(a, r) for a, r in self._static if r.link != name]
+
+    def set_relay(self, source: str, target: str, enabled: bool = True, *,
+                  both_ways: bool = True) -> None:
+        """Switch forwarding from link ``source`` to link ``target`` (and back) on or off."""
+        for pair in ((source, target), (target, source)) if both_ways else ((source, target),):
+            if enabled:
+                self._relay.add(pair)
+            else:
+                self._relay.discard(pair)
+
+    def add_route(self, pattern: JausAddress, link: str, peer: Peer | None) -> None:
+        """Seed the address book: ``pattern`` (wildcards allowed) lives at ``(link, peer)``."""
+        self._static.append((pattern, Route(link, peer, static=True)))
+        self._static.sort(key=lambda item: _wildcards(item[0]))
+
+    def lookup(self, address: JausAddress) -> Route | None:
+        """Where ``address`` lives: a learned route, else the most specific static one."""
+        route = self._learned.get(address)
+        if route is not None:
+            return route
+        for pattern, static in self._static:
+            if pattern.matches(address):
+                return static
+        # a subsystem is one vehicle behind one link: another of its components we heard
+        # from says where this one lives (no broadcast with ACK over a slow radio)
+        for known, learned in self._learned.items():
+            if known.subsystem == address.subsystem and not address.is_broadcast:
+                return learned
+        return None
+
+    def routes(self) -> list[tuple[JausAddress, Route]]:
+        """Learned then static entries of the address book."""
+        return [*sorted(self._learned.items()), *self._static]
+
+    # -- input from links ----------------------------------------------------------------
+    def receive(self, link: str, peer: Peer, packets: Sequence[Packet], now: float
+                ) -> list[Action]:
+        """Route packets that arrived on ``link`` from ``peer``.
+
+        Never raises: packets from a link that was not added are counted and dropped.
+        """
+        if link not in self._links:
+            self.counters["dropped: unknown link"] += len(packets)
+            return []
+        actions: list[Action] = []
+        out: dict[tuple[str, Peer | None], list[Packet]] = {}
+        counters = self.counters
+        learned = self._learned
+        local = self._local
+        seen = self._seen
+        window = self.config.duplicate_window
+        self._expire_duplicates(now, 64)  # a little per call: no stall after a burst
+        if self._next_sweep is None:
+            self._next_sweep = now + self.config.sweep_interval
+        for packet in packets:
+            counters["received"] += 1
+            source = packet.source
+            if source in local:
+                counters["dropped: own source"] += 1
+                continue
+            dest = packet.destination
+            key = (source.id, dest.id, packet.sequence, packet.data_flags,
+                   hash(packet.payload))
+            route = learned.get(source)
+            expiry = seen.get(key)
+            if expiry is not None and expiry > now:
+                counters["dropped: duplicate"] += 1
+                if route is not None and route.link == link and route.peer == peer:
+                    route.seen = now
+                if packet.ack_nak == AckNak.REQUEST and dest in local:
+                    self._queue(actions, link, peer, [_ack(packet)], now)
+                    counters["acks sent"] += 1
+                continue
+            if len(seen) < self.config.max_duplicates:
+                seen[key] = now + window
+                self._seen_order.append((now + window, key))
+            else:
+                counters["duplicate table full"] += 1
+            if not source.is_broadcast:
+                if route is None or route.link != link or route.peer != peer:
+                    if route is None and len(learned) >= self.config.max_routes:
+                        del learned[next(iter(learned))]  # re-learned on its next packet
+                        counters["routes forgotten: table full"] += 1
+                    learned[source] = Route(link, peer, seen=now)
+                else:
+                    route.seen = now
+            if packet.ack_nak in _ACKS:
+                counters["acks received"] += 1
+                if dest in local:
+                    self._acknowledged(packet)
+                    continue
+            elif dest in local:
+                if packet.ack_nak == AckNak.REQUEST:
+                    self._queue(actions, link, peer, [_ack(packet)], now)
+                    counters["acks sent"] += 1
+                self._deliver_up(actions, packet, link, peer, now)
+                continue
+            elif dest.is_broadcast and any(dest.matches(a) for a in local):
+                self._deliver_up(actions, packet, link, peer, now)
+            # forwarding to other links
+            if not dest.is_broadcast:
+                route = learned.get(dest) or self.lookup(dest)
+                if route is not None:
+                    if route.link == link:
+                        counters["dropped: destination on arrival link"] += 1
+                    elif (link, route.link) in self._relay:
+                        out.setdefault((route.link, route.peer), []).append(packet)
+                    else:
+                        counters["dropped: relay off"] += 1
+                    continue
+            targets = [t for (s, t) in self._relay if s == link and t in self._links]
+            if not targets and not dest.is_broadcast:
+                counters["dropped: no route"] += 1
+            for target in targets:
+                out.setdefault((target, None), []).append(packet)
+        for (target, target_peer), batch in out.items():
+            counters["forwarded"] += len(batch)
+            self._queue(actions, target, target_peer, batch, now)
+        return actions
+
+    # -- input from local components -----------------------------------------------------
+    def send(self, packet: Packet, now: float, *, ack: bool = False) -> list[Action]:
+        """Send a message from a local component; numbers, fragments and routes it.
+
+        ``packet.sequence`` is replaced by the source component's next number. With
+        ``ack`` the destination is asked to acknowledge each packet, which is retried and
+        finally reported as :class:`DeliveryFailed`. Raises
+        :class:`~edge_vis.errors.LocalProtocolError` for a source that is not local or a
+        broadcast larger than one packet.
+        """
+        source = packet.source
+        if source not in self._local:
+            raise LocalProtocolError(f"{source} is not a local component of this relay")
+        if self._next_sweep is None:
+            self._next_sweep = now + self.config.sweep_interval
+        actions: list[Action] = []
+        dest = packet.destination
+        self.counters["sent"] += 1
+        if dest.is_broadcast:
+            if len(packet.payload) > self._smallest_mtu():
+                raise LocalProtocolError(
+                    f"broadcast of {len(packet.payload)} bytes exceeds one packet "
+                    f"(MTU {self._smallest_mtu()}); broadcasts cannot be fragmented"
+                )
+            packet = replace(packet, sequence=self._next_seq(source), ack_nak=AckNak.NONE,
+                             broadcast=packet.broadcast or Broadcast.GLOBAL)
+            for other in self._local:
+                if other != source and dest.matches(other):
+                    actions.append(Deliver(packet, None, None))
+                    break
+            for name in self._links:
+                self._queue(actions, name, None, [packet], now)
+            return actions
+        if dest in self._local:
+            actions.append(Deliver(replace(packet, sequence=self._next_seq(source)), None, None))
+            return actions
+        route = self.lookup(dest)
+        if route is None:  # JTS: broadcast it, ask for an ACK, learn from the answer
+            ack = True
+            packet = replace(packet, broadcast=Broadcast.GLOBAL)
+            mtu = self._smallest_mtu()
+        else:
+            mtu = self._links[route.link].mtu if route.link in self._links else JTS_MAX_PAYLOAD
+        packets = self._split(packet, mtu, ack)
+        if route is None:
+            for name in self._links:
+                self._queue(actions, name, None, packets, now)
+        else:
+            self._queue(actions, route.link, route.peer, packets, now)
+        if ack:
+            for p in packets:
+                self._pending[(p.destination.id, p.sequence)] = _Pending(
+                    p, route.link if route else None, route.peer if route else None,
+                    now + self.config.ack_timeout,
+                )
+        return actions
+
+    def set_busy(self, link: str, busy: bool, now: float) -> list[Action]:
+        """A link reports it cannot take more (``True``) or is ready again (``False``)."""
+        state = self._links[link]
+        state.busy = busy
+        actions: list[Action] = []
+        if not busy:
+            self._drain(state, now, actions)
+        return actions
+
+    # -- time ------------------------------------------------------------------------------
+    def next_deadline(self) -> float | None:
+        """When :meth:`on_timer` has work next, or ``None``."""
+        best: float | None = None
+        if self._pending:
+            best = min(p.deadline for p in self._pending.values())
+        sweep = self._next_sweep
+        if sweep is not None and (best is None or sweep < best) and (
+            self._learned or self._seen
+            or (self._reassembler is not None and self._reassembler.bytes_held)
+        ):
+            best = sweep
+        for state in self._links.values():
+            if state.queued_bytes and not state.busy and state.bandwidth_bps:
+                deficit = -state.tokens if state.tokens < 0 else 0.0
+                base = state.refilled if state.refilled is not None else 0.0
+                due = base + deficit * 8 / state.bandwidth_bps
+                if best is None or due < best:
+                    best = due
+        return best
+
+    def on_timer(self, now: float) -> list[Action]:
+        """Retries, queue draining, expiry of peers, duplicates and partial messages."""
+        actions: list[Action] = []
+        for key, pending in list(self._pending.items()):
+            if pending.deadline > now:
+                continue
+            if pending.tries >= self.config.ack_retries:
+                del self._pending[key]
+                self.counters["delivery failed"] += 1
+                actions.append(DeliveryFailed(
+                    pending.packet,
+                    f"no ACK from {pending.packet.destination} after "
+                    f"{pending.tries + 1} attempts",
+                ))
+                continue
+            pending.tries += 1
+            pending.deadline = now + self.config.ack_timeout
+            self.counters["retries"] += 1
+            route = self.lookup(pending.packet.destination)
+            if route is not None:
+                self._queue(actions, route.link, route.peer, [pending.packet], now)
+            else:
+                for name in self._links:
+                    self._queue(actions, name, None, [pending.packet], now)
+        for state in self._links.values():
+            if state.queued_bytes:
+                self._drain(state, now, actions)
+        if self._next_sweep is not None and now >= self._next_sweep:
+            more = self._expire_duplicates(now, 4096)
+            self._next_sweep = now + (0.01 if more else self.config.sweep_interval)
+            limit = now - self.config.peer_timeout
+            stale = [a for a, r in self._learned.items() if r.seen < limit]
+            for address in stale:
+                del self._learned[address]
+                log.info("forgot %s: silent for %.0f s", address, self.config.peer_timeout)
+            self.counters["routes expired"] += len(stale)
+            if self._reassembler is not None:
+                self.counters["reassembly expired"] += self._reassembler.expire(now)
+        return actions
+
+    def stats(self) -> RouterStats:
+        """A snapshot of counters, queues and the address book size."""
+        return RouterStats(
+            counters=dict(self.counters),
+            links={
+                name: LinkQueueStats(s.depth, s.queued_bytes, s.busy, s.sent, dict(s.drops))
+                for name, s in self._links.items()
+            },
+            routes=len(self._learned) + len(self._static),
+            pending_acks=len(self._pending),
+        )
+
+    # -- internals -------------------------------------------------------------------------
+    def _next_seq(self, source: JausAddress) -> int:
+        seq = self._seq.get(source, 1)
+        self._seq[source] = (seq + 1) & 0xFFFF
+        return seq
+
+    def _smallest_mtu(self) -> int:
+        return min((s.mtu for s in self._links.values()), default=JTS_MAX_PAYLOAD)
+
+    def _split(self, packet: Packet, mtu: int, ack: bool) -> list[Packet]:
+        flags = AckNak.REQUEST if ack else packet.ack_nak
+        first = self._seq.get(packet.source, 1)
+        packet = replace(packet, sequence=first, ack_nak=flags)
+        if len(packet.payload) <= mtu:
+            parts = [packet]
+        elif fragment is None:  # pragma: no cover - see the import seam above
+            raise LocalProtocolError(
+                f"message of {len(packet.payload)} bytes exceeds the MTU {mtu} and "
+                "large-message support is not installed"
+            )
+        else:
+            try:
+                parts = fragment(packet, mtu)
+            except EncodeError as exc:
+                raise LocalProtocolError(str(exc)) from exc
+        self._seq[packet.source] = (first + len(parts)) & 0xFFFF
+        return parts
+
+    def _deliver_up(self, actions: list[Action], packet: Packet, link: str, peer: Peer,
+                    now: float) -> None:
+        if packet.data_flags != DataFlags.SINGLE:
+            if self._reassembler is None:  # pragma: no cover - see the import seam
+                self.counters["dropped: fragment (no reassembly)"] += 1
+                return
+            whole = self._reassembler.feed(packet, now)
+            if whole is None:
+                return
+            packet = whole
+        self.counters["delivered"] += 1
+        actions.append(Deliver(packet, link, peer))
+
+    def _acknowledged(self, packet: Packet) -> None:
+        pending = self._pending.pop((packet.source.id, packet.sequence), None)
+        if pending is None:
+            self.counters["acks unexpected"] += 1
+        elif packet.ack_nak == AckNak.NAK:
+            self.counters["naks received"] += 1
+
+    def _expire_duplicates(self, now: float, limit: int) -> bool:
+        """Forget up to ``limit`` expired entries; True when more are due.
+
+        Entries are also checked against ``now`` when looked up, so forgetting late
+        is harmless; it only bounds memory.
+        """
+        order = self._seen_order
+        seen = self._seen
+        for _ in range(limit):
+            if not order or order[0][0] > now:
+                return False
+            expiry, key = order.popleft()
+            if seen.get(key) == expiry:
+                del seen[key]
+        return bool(order) and order[0][0] <= now
+
+    def _queue(self, actions: list[Action], link: str, peer: Peer | None,
+               packets: Sequence[Packet], now: float) -> None:
+        state = self._links.get(link)
+        if state is None:
+            self.counters["dropped: unknown link"] += len(packets)
+            return
+        mtu = state.mtu
+        if max(len(p.payload) for p in packets) > mtu:
+            fits = [p for p in packets if len(p.payload) <= mtu]
+            dropped = len(packets) - len(fits)
+            state.drops["exceeds MTU"] += dropped
+            self.counters["dropped: exceeds MTU"] += dropped
+            packets = fits
+        if not packets:
+            return
+        if state.bandwidth_bps is None and not state.busy and not state.queued_bytes:
+            state.sent += len(packets)
+            actions.append(SendPackets(link, peer, tuple(packets)))
+            return
+        overhead = state.overhead
+        queues = state.queues
+        for p in packets:
+            cost = len(p.payload) + 14 + overhead
+            if state.latest_wins and (p.priority & 3) <= LATEST_WINS_MAX_PRIORITY:
+                self._supersede(state, peer, p)
+            queues[p.priority & 3].append((peer, p, cost))
+            state.queued_bytes += cost
+        while state.queued_bytes > state.queue_limit:
+            level = next(i for i in range(4) if queues[i])
+            _, _victim, cost = queues[level].popleft()
+            state.queued_bytes -= cost
+            reason = f"queue full (priority {level})"
+            state.drops[reason] += 1
+            self.counters[f"dropped: {reason}"] += 1
+        self._drain(state, now, actions)
+
+    def _supersede(self, state: _LinkState, peer: Peer | None, packet: Packet) -> None:
+        """Remove the queued older copy of what ``packet`` replaces (latest wins)."""
+        key = latest_wins_key(packet)
+        if key is None:
+            return
+        queue = state.queues[packet.priority & 3]
+        for index, (queued_peer, queued, cost) in enumerate(queue):
+            if queued_peer == peer and latest_wins_key(queued) == key:
+                del queue[index]
+                state.queued_bytes -= cost
+                reason = f"superseded (priority {packet.priority & 3})"
+                state.drops[reason] += 1
+                self.counters[f"dropped: {reason}"] += 1
+                return
+
+    def _drain(self, state: _LinkState, now: float, actions: list[Action]) -> None:
+        if state.busy:
+            return
+        rate = state.bandwidth_bps
+        if rate is not None:
+            if state.refilled is not None:
+                state.tokens = min(state.burst, state.tokens + (now - state.refilled) * rate / 8)
+            state.refilled = now
+        batch: list[Packet] = []
+        batch_peer: Peer | None = None
+        queues = state.queues
+        while state.queued_bytes:
+            if rate is not None and state.tokens < -1e-9:  # due at 0: see next_deadline
+                break
+            level = next(i for i in (3, 2, 1, 0) if queues[i])
+            peer, packet, cost = queues[level].popleft()
+            state.queued_bytes -= cost
+            if rate is not None:
+                state.tokens -= cost
+            if batch and peer != batch_peer:
+                actions.append(SendPackets(state.name, batch_peer, tuple(batch)))
+                batch = []
+            batch_peer = peer
+            batch.append(packet)
+            state.sent += 1
+        if batch:
+            actions.append(SendPackets(state.name, batch_peer, tuple(batch)))
+
+
+def _ack(packet: Packet) -> Packet:
+    """The ACK answering ``packet`` (JTS: empty payload, same sequence and priority)."""
+    return Packet(
+        destination=packet.source, source=packet.destination, payload=b"",
+        sequence=packet.sequence, priority=packet.priority, ack_nak=AckNak.ACK,
+    )
+
+
+def _wildcards(address: JausAddress) -> int:
+    return sum((address.subsystem == 0xFFFF, address.node == 0xFF, address.component == 0xFF))
+
+
+def describe_route(address: JausAddress, route: Route) -> str:
+    """``126.1.199 → udp 127.0.0.2:3794 (learned)`` for logs and status output."""
+    kind = "static" if route.static else "learned"
+    return f"{address} → {route.link} {format_peer(route.peer)} ({kind})"

@@ -1,0 +1,542 @@
+"""The asyncio shell of the relay: the only place where links, DDS, the clock and the
+sans-I/O core meet. Performs I/O.
+
+One event loop drives everything::
+
+    link deliver(name, peer, packets) ─► Router.receive ─► SendPackets ─► Link.send
+                                                        └► Deliver ─► Catalogue.decode
+                                                                       ─► Engine.receive_message
+    DDS sample (bridge thread → loop)  ─────────────────────────────► Engine.receive_sample
+    timer at min(router, engine deadlines) ─► Router.on_timer / Engine.on_timer
+    Engine actions: SendMessage ─► Catalogue.encode ─► Router.send ─► Link.send
+                    Publish     ─► DdsBridge.publish
+
+Every input is handled to completion (router, engine, actions) before the next one, so
+the core never sees concurrency. Bad bytes are counted and logged (rate-limited), never
+raised; a failing link is reported and the relay keeps running.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import time
+from collections import Counter
+from collections.abc import Callable, Iterable, Mapping
+from typing import Any
+
+from edge_vis import plugins
+from edge_vis.bandwidth.demands import FleetPlanner
+from edge_vis.bandwidth.linkspec import DEFAULT_PRIORITIES, LinkSpec
+from edge_vis.catalogue import Catalogue, default_catalogue
+from edge_vis.config import BulkProfile, RelayProfile
+from edge_vis.engine.engine import Engine
+from edge_vis.errors import CodecError, EdgeVisError, EncodeError
+from edge_vis.jaus.address import JausAddress
+from edge_vis.jaus.transport import Broadcast, Packet
+from edge_vis.kit.actions import Publish, SendMessage, ShutdownComplete
+from edge_vis.routing.link import Link, LinkUrl, Peer
+from edge_vis.routing.router import Deliver, DeliveryFailed, Router, RouterConfig, SendPackets
+from edge_vis.routing.traffic import class_names, priority_for
+from edge_vis.shell.mirror import Mirror
+
+log = logging.getLogger(__name__)
+
+#: how often LinkStatus samples are published (seconds)
+LINK_STATUS_PERIOD = 1.0
+#: seconds between two ``totals:`` log lines
+TOTALS_PERIOD = 600.0
+#: counters of :meth:`Runtime.totals` that mean the relay lost something it had accepted
+LOSS_COUNTERS = ("publish errors", "send errors", "encode errors", "delivery failed")
+#: link drop reasons of input refused on arrival (garbage on the wire): not losses
+REFUSED_INPUT = ("malformed",)
+#: at most this many log lines per reason and minute for bad input from the network
+_LOG_BURST = 5
+
+
+class _RateLimitedLog:
+    def __init__(self) -> None:
+        self._window: dict[str, tuple[float, int]] = {}
+
+    def warning(self, reason: str, now: float, msg: str, *args: object) -> None:
+        start, count = self._window.get(reason, (now, 0))
+        if now - start > 60.0:
+            start, count = now, 0
+        if count < _LOG_BURST:
+            log.warning(msg, *args)
+        elif count == _LOG_BURST:
+            log.warning("%s: further messages of this kind suppressed for a minute", reason)
+        self._window[reason] = (start, count + 1)
+
+
+def losses(totals: Mapping[str, int]) -> dict[str, int]:
+    """The non-zero counts in ``totals`` (:meth:`Runtime.totals`, or its logged copy) of
+    what the relay accepted and then lost: link drops other than refused input, and
+    publish, send, encode and delivery errors."""
+    return {k: v for k, v in totals.items()
+            if v and (k in LOSS_COUNTERS or (" dropped: " in k and not k.split(
+                " dropped: ", 1)[1].startswith(REFUSED_INPUT)))}
+
+
+class Runtime:
+    """Run one relay: links + router + engine + DDS, from a :class:`RelayProfile`.
+
+    ``publisher_factory`` builds the DDS side once the loop runs (default: a
+    :class:`~edge_vis.dds.bridge.DdsBridge` on the profile's domain and partitions);
+    pass ``None`` for a JAUS-only relay. Use as::
+
+        runtime = Runtime(profile)
+        await runtime.start()
+        await runtime.wait_stopped()    # until request_stop() (signal handler)
+    """
+
+    def __init__(
+        self,
+        profile: RelayProfile,
+        *,
+        catalogue: Catalogue | None = None,
+        publisher_factory: Callable[[Runtime], Any] | str | None = "dds",
+        mirror: Mirror | None = None,
+        shutdown_timeout: float = 3.0,
+    ) -> None:
+        self.profile = profile
+        self.catalogue = catalogue or _catalogue_for(profile)
+        limits = profile.limits
+        self.router = Router([profile.jaus_id], config=RouterConfig(
+            max_routes=limits.max_routes, max_duplicates=limits.max_duplicates))
+        self.engine: Engine | None = None
+        self.links: dict[str, Link] = {}
+        self.counters: Counter[str] = Counter()
+        #: DDS samples published, per topic
+        self.published: Counter[str] = Counter()
+        self._publisher_factory = publisher_factory
+        self.publisher: Any = None
+        self._mirror = mirror
+        self._shutdown_timeout = shutdown_timeout
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._timer: asyncio.TimerHandle | None = None
+        self._timer_at: float | None = None
+        self._stopped: asyncio.Event | None = None
+        self._shutdown_done: asyncio.Event | None = None
+        self._status_task: asyncio.Task[None] | None = None
+        self._log = _RateLimitedLog()
+        self.first_discovery_at: float | None = None
+        self.images: Any = None  # the UDT image service, when the profile has [bulk]
+        #: the bandwidth planner, when a link has a link profile (see edge_vis.bandwidth)
+        self.planner: FleetPlanner | None = None
+
+    # -- life cycle ------------------------------------------------------------------------
+    async def start(self) -> None:
+        """Open links and DDS, start the engine; raises EdgeVisError on a bad set-up."""
+        loop = self._loop = asyncio.get_running_loop()
+        self._stopped = asyncio.Event()
+        self._shutdown_done = asyncio.Event()
+        specs = {lp.name: lp.spec for lp in self.profile.links if lp.spec is not None}
+        self.planner = (FleetPlanner(self.profile, specs, self.catalogue, self._link_of)
+                        if specs else None)
+        self.engine = Engine(
+            self.profile, catalogue=self.catalogue, wall_offset=time.time() - loop.time(),
+            planner=self.planner,
+        )
+        self.engine.link_of = self._link_of
+        if self._publisher_factory == "dds":
+            self.publisher = self._open_dds()
+        elif callable(self._publisher_factory):
+            self.publisher = self._publisher_factory(self)
+        if self.profile.bulk is not None:
+            self._start_bulk(self.profile.bulk)
+        for link_profile in self.profile.links:
+            await self._open_link(link_profile.name, link_profile.url, link_profile.bandwidth)
+        log.info(
+            "relay %s (%s) running: links %s, translators %s",
+            self.profile.jaus_id, self.profile.name, ", ".join(self.links) or "none",
+            ", ".join(t.name for t in self.engine.manager.translators) or "none",
+        )
+        if self.profile.operators.closed:
+            log.warning("no [[operators]] in the profile and access.any_operator is false: "
+                        "every control request will be refused")
+        self._pump_engine(loop.time())
+        self._status_task = loop.create_task(self._publish_link_status())
+
+    async def _open_link(self, name: str, url: str, bandwidth: int) -> None:
+        parsed = LinkUrl.parse(url)
+        cls = plugins.load(plugins.LINKS, parsed.scheme)
+        options = dict(parsed.options)
+        if bandwidth and "bandwidth" not in options:
+            url = url + ("&" if "?" in url else "?") + f"bandwidth={bandwidth}"
+        link: Link = cls(url, name=name)
+        if self._mirror is not None:
+            self._mirror.attach(link)
+        await link.open(self._on_packets, self._on_link_state)
+        self.links[name] = link
+        spec = self._spec(name)
+        if spec is not None and spec.limited:
+            # paced at the plan's budget, fragmented to the radio's MTU, stale telemetry
+            # replaced by newer (edge_vis.routing.traffic)
+            self.router.add_link(name, mtu=min(link.mtu, spec.mtu),
+                                 bandwidth_bps=spec.budget_bps, overhead=spec.overhead,
+                                 latest_wins=True)
+            log.info("link %s open: %s (mtu %d, budget %.0f B/s)", name, url,
+                     min(link.mtu, spec.mtu), spec.budget_bytes)
+            return
+        self.router.add_link(name, mtu=link.mtu, bandwidth_bps=link.bandwidth_bps,
+                             overhead=link.overhead)
+        log.info("link %s open: %s (mtu %d)", name, url, link.mtu)
+
+    def _spec(self, link: str) -> LinkSpec | None:
+        for lp in self.profile.links:
+            if lp.name == link:
+                return lp.spec
+        return None
+
+    def _link_of(self, address: Any) -> str | None:
+        route = self.router.lookup(address)
+        return route.link if route is not None else None
+
+    def _start_bulk(self, bulk: BulkProfile) -> None:
+        """The UDT image receiver: spooled, verified, published here, forwarded on."""
+        udt = plugins.load(plugins.LINKS, "udt")
+        loop = self._loop
+        assert loop is not None
+
+        def publish(topic: str, sample: dict[str, Any]) -> None:  # from UDT threads
+            loop.call_soon_threadsafe(self._publish, topic, sample)
+
+        self.images = udt.ImageService(
+            bulk.directory, bulk.listen, spool_dir=bulk.spool, forward=bulk.forward,
+            quota_bytes=bulk.quota_bytes, publish=publish, publish_data=bulk.publish_data,
+            max_rate_bps=bulk.max_rate_bps, forward_lanes=bulk.forward_lanes,
+            keys=udt.load_keys(bulk.keys) if bulk.keys is not None else None,
+        ).start()
+        host, port = self.images.address
+        log.info("receiving images over UDT on %s:%d into %s%s", host, port, bulk.directory,
+                 f", forwarding to {', '.join(bulk.forward)}" if bulk.forward else "")
+
+    def _open_dds(self) -> Any:
+        from edge_vis.dds.bridge import DdsBridge  # imported lazily: cyclonedds is optional
+        from edge_vis.dds.topics import TopicRegistry
+
+        assert self.engine is not None
+        registry = TopicRegistry.standard()
+        for translator in self.engine.manager.translators:
+            registry.register_all(translator.topic_types, owner=translator.name)
+        bridge = DdsBridge(self.profile.dds.domain, self.profile.dds.partitions, registry,
+                           max_products=self.profile.limits.max_products)
+        published, subscribed = self.engine.manager.topics()
+        bridge.open_writers([*published, "LinkStatus"])
+        subscribed = [t for t in dict.fromkeys(subscribed)]
+        if subscribed:
+            bridge.subscribe(subscribed, self._on_sample, loop=self._loop)
+        log.info("DDS domain %d, partitions %s: publishing %s; subscribed to %s",
+                 self.profile.dds.domain, list(self.profile.dds.partitions) or ["(default)"],
+                 ", ".join(published), ", ".join(subscribed))
+        return bridge
+
+    def apply_profile(self, profile: RelayProfile) -> list[str]:
+        """Take a reloaded profile (SIGHUP, :mod:`edge_vis.shell.reload`) while running.
+
+        ``profile`` must keep this relay's id, links, DDS and translators; the engine
+        applies rates, timing and vehicle profiles. Returns what it could not apply.
+        """
+        self.profile = profile
+        if self.engine is None or self._loop is None:
+            return []
+        now = self._loop.time()
+        not_applied = self.engine.apply_profile(profile, now)
+        self._pump_engine(now)
+        return not_applied
+
+    def set_link_rate(self, link: str, bit_rate: float) -> None:
+        """A new measured rate of ``link`` (a radio that changed modulation, say): plan the
+        report rates again and update the vehicles' events."""
+        if self.engine is None or self._loop is None:
+            return
+        now = self._loop.time()
+        self.engine.set_link_rate(link, bit_rate, now)
+        self._pump_engine(now)
+
+    def _link_of(self, address: JausAddress) -> str:
+        route = self.router.lookup(address)
+        return route.link if route is not None else ""
+
+    def request_stop(self) -> None:
+        """Ask the relay to stop (signal handlers call this)."""
+        if self._stopped is not None and not self._stopped.is_set():
+            log.info("stopping: cancelling events and releasing control")
+            self._stopped.set()
+
+    async def wait_stopped(self) -> None:
+        """Run until :meth:`request_stop`, then shut down cleanly."""
+        assert self._stopped is not None
+        await self._stopped.wait()
+        await self.stop()
+
+    async def stop(self) -> None:
+        """Cancel events, release control, wait for the goodbyes (bounded), close all."""
+        loop = asyncio.get_running_loop()
+        engine = self.engine
+        if engine is not None and not engine.is_shut_down:
+            engine.shutdown(loop.time())
+            self._pump_engine(loop.time())
+            assert self._shutdown_done is not None
+            try:
+                await asyncio.wait_for(self._shutdown_done.wait(), self._shutdown_timeout)
+            except TimeoutError:
+                log.warning("shutdown: vehicles did not answer within %.1f s",
+                            self._shutdown_timeout)
+            # let the last queued packets leave
+            self._on_timer()
+            await asyncio.sleep(0.05)
+        if self.images is not None:
+            self.images.stop()  # what was received stays in the spool for the next start
+            self.images = None
+        if self._status_task is not None:
+            self._status_task.cancel()
+        if self._timer is not None:
+            self._timer.cancel()
+        for link in self.links.values():
+            await link.close()
+        if self.publisher is not None:
+            self.publisher.close()
+            self.publisher = None
+        if self._mirror is not None:
+            self._mirror.close()
+        self.log_totals()
+        log.info("stopped")
+
+    # -- inputs ------------------------------------------------------------------------------
+    def _on_packets(self, link: str, peer: Peer, packets: list[Packet]) -> None:
+        assert self._loop is not None
+        now = self._loop.time()
+        try:
+            actions = self.router.receive(link, peer, packets, now)
+        except EdgeVisError as exc:  # a router refusal is about this input only
+            self.counters["router errors"] += 1
+            self._log.warning("router", now, "router refused packets from %s: %s", link, exc)
+            return
+        self._carry_router(actions, now)
+        self._pump_engine(now)
+
+    def _on_sample(self, topic: str, sample: dict[str, Any]) -> None:
+        assert self._loop is not None and self.engine is not None
+        now = self._loop.time()
+        self.counters["samples in"] += 1
+        self.engine.receive_sample(topic, sample, now)
+        self._pump_engine(now)
+
+    def _on_link_state(self, link: str, state: str, reason: str) -> None:
+        if state == "down":
+            log.warning("link %s down: %s", link, reason)
+        else:
+            log.info("link %s %s%s", link, state, f": {reason}" if reason else "")
+
+    def _on_timer(self) -> None:
+        assert self._loop is not None
+        self._timer = None
+        self._timer_at = None
+        now = self._loop.time()
+        self._carry_router(self.router.on_timer(now), now)
+        if self.engine is not None:
+            self.engine.on_timer(now)
+        self._pump_engine(now)
+
+    # -- outputs -----------------------------------------------------------------------------
+    def _carry_router(self, actions: Iterable[object], now: float) -> None:
+        engine = self.engine
+        for action in actions:
+            if isinstance(action, SendPackets):
+                link = self.links.get(action.link)
+                if link is None:
+                    self.counters["send to unknown link"] += 1
+                    continue
+                link.send(list(action.packets), action.peer)
+            elif isinstance(action, Deliver):
+                packet = action.packet
+                if packet.message_code is None:
+                    continue
+                try:
+                    message = self.catalogue.decode(packet.payload)
+                except CodecError as exc:
+                    self.counters["undecodable messages"] += 1
+                    self._log.warning("decode", now, "undecodable message from %s: %s",
+                                      packet.source, exc)
+                    continue
+                if engine is not None:
+                    if self.first_discovery_at is None and message.name == "ReportIdentification":
+                        self.first_discovery_at = now
+                    engine.receive_message(packet.source, message, now)
+            elif isinstance(action, DeliveryFailed):
+                self.counters["delivery failed"] += 1
+                log.debug("no acknowledgement from %s: %s", action.packet.destination,
+                          action.reason)
+
+    def _pump_engine(self, now: float) -> None:
+        engine = self.engine
+        if engine is None:
+            return
+        for _ in range(8):  # engine actions may produce more actions; bounded
+            actions = engine.drain_actions()
+            if not actions:
+                break
+            for action in actions:
+                if isinstance(action, SendMessage):
+                    self._send(action, now)
+                elif isinstance(action, Publish):
+                    self._publish(action.topic, action.sample)
+                elif isinstance(action, ShutdownComplete) and self._shutdown_done is not None:
+                    self._shutdown_done.set()
+        self._rearm(now)
+
+    def _send(self, action: SendMessage, now: float) -> None:
+        try:
+            payload = self.catalogue.encode(_code_of(self.catalogue, action), action.fields)
+        except EdgeVisError as exc:
+            self.counters["encode errors"] += 1
+            log.error("cannot encode %s for %s: %s", action.name, action.destination, exc)
+            return
+        destination = action.destination
+        packet = Packet(
+            destination, self.profile.jaus_id, payload, priority=self._priority(action),
+            broadcast=Broadcast.GLOBAL if destination.is_broadcast else Broadcast.NONE,
+        )
+        try:
+            self._carry_router(self.router.send(packet, now), now)
+        except EdgeVisError as exc:
+            self.counters["send errors"] += 1
+            self._log.warning("send", now, "cannot send %s to %s: %s", action.name,
+                              destination, exc)
+        self.counters["messages sent"] += 1
+
+    def _publish(self, topic: str, sample: Mapping[str, Any]) -> None:
+        self.counters["samples out"] += 1
+        if self.publisher is None:
+            return
+        try:
+            self.publisher.publish(topic, sample)
+        except (EdgeVisError, ValueError, KeyError, TypeError) as exc:
+            self.counters["publish errors"] += 1
+            log.error("cannot publish %s: %s", topic, exc)
+            return
+        self.published[topic] += 1
+
+    def totals(self) -> dict[str, int]:
+        """Every count since start, flat and sorted: the relay's, the engine's, each link's
+        traffic and drops, and the samples published per topic (logged every
+        :data:`TOTALS_PERIOD` and on stop, so a journal shows where messages went)."""
+        out: Counter[str] = Counter(self.counters)
+        if self.engine is not None:
+            out.update({k.replace("_", " "): v for k, v in self.engine.counters.items()})
+        for sample in self.link_status():
+            name = sample["link"]
+            for key in ("messages_in", "messages_out"):
+                out[f"link {name} {key.replace('_', ' ')}"] = int(sample[key])
+            for drop in sample["drops"]:
+                out[f"link {name} dropped: {drop['traffic_class']}"] = int(drop["count"])
+        for topic, count in self.published.items():
+            out[f"published {topic}"] = count
+        return dict(sorted(out.items()))
+
+    def log_totals(self) -> None:
+        """One log line with :meth:`totals` as a JSON object (drop reasons hold commas)."""
+        log.info("totals: %s", json.dumps(self.totals()))
+
+    def _rearm(self, now: float) -> None:
+        assert self._loop is not None
+        deadlines = [d for d in (self.router.next_deadline(),
+                                 self.engine.next_deadline() if self.engine else None)
+                     if d is not None]
+        if not deadlines:
+            return
+        when = max(min(deadlines), now)
+        if self._timer_at is not None and self._timer_at <= when:
+            return
+        if self._timer is not None:
+            self._timer.cancel()
+        self._timer_at = when
+        self._timer = self._loop.call_at(when, self._on_timer)
+
+    # -- health and mirror ----------------------------------------------------------------------
+    def _priority(self, action: SendMessage) -> int:
+        """The header priority of ``action``: its traffic class on its link's profile."""
+        if not action.traffic_class:
+            return action.priority
+        destination = action.destination
+        link = self._link_of(destination) if not destination.is_broadcast else None
+        spec = self._spec(link) if link else None
+        if spec is None:  # a link without a link profile: as the sender asked
+            return action.priority
+        return priority_for(action.traffic_class, action.priority, spec.priorities)
+
+    def link_status(self) -> list[dict[str, Any]]:
+        """One ``LinkStatus`` sample per link."""
+        queues = self.router.stats().links
+        samples = []
+        wall_ms = int(time.time() * 1000)
+        for name, link in self.links.items():
+            stats = link.stats()
+            queue = queues.get(name)
+            drops = Counter(dict(stats.drops))
+            spec = self._spec(name)
+            if queue is not None:
+                priorities = spec.priorities if spec else DEFAULT_PRIORITIES
+                for reason, count in queue.drops.items():  # name the classes, not numbers
+                    for level in range(4):
+                        reason = reason.replace(f"priority {level})",
+                                                f"{class_names(level, priorities)})")
+                    drops[reason] += count
+            samples.append({
+                "link": name, "vehicle_id": "", "up": stats.state == "open",
+                "budget_bps": (spec.budget_bps if spec is not None and spec.limited
+                               else float(link.bandwidth_bps or 0.0)),
+                "measured_bps": 0.0,
+                "queue_depth": (queue.depth if queue else 0) + stats.queue_depth,
+                "drops": [{"traffic_class": k, "count": v} for k, v in sorted(drops.items())],
+                "bytes_in": stats.bytes_in, "bytes_out": stats.bytes_out,
+                "messages_in": stats.messages_in, "messages_out": stats.messages_out,
+                "timestamp_ms": wall_ms,
+            })
+        return samples
+
+    async def _publish_link_status(self) -> None:
+        previous: dict[str, tuple[float, int]] = {}
+        next_totals = time.monotonic() + TOTALS_PERIOD
+        while True:
+            await asyncio.sleep(LINK_STATUS_PERIOD)
+            now = time.monotonic()
+            if now >= next_totals:
+                next_totals = now + TOTALS_PERIOD
+                self.log_totals()
+            for sample in self.link_status():
+                total = sample["bytes_in"] + sample["bytes_out"]
+                then, before = previous.get(sample["link"], (now, total))
+                if now > then:
+                    sample["measured_bps"] = (total - before) * 8 / (now - then)
+                previous[sample["link"]] = (now, total)
+                self._publish("LinkStatus", sample)
+
+
+def _code_of(catalogue: Catalogue, action: SendMessage) -> str | int:
+    """What to encode ``action`` as: its name, or the code of the definition of that name
+    in ``action.service_set`` (two sets may use one name; the code tells them apart)."""
+    if action.service_set is None:
+        return action.name
+    try:
+        return catalogue.by_name(action.name, action.service_set).code
+    except KeyError:
+        raise EncodeError(f"no message named {action.name!r} in service set "
+                          f"{action.service_set!r}") from None
+
+
+def _catalogue_for(profile: RelayProfile) -> Catalogue:
+    catalogue = default_catalogue()
+    if not profile.jsidl:
+        return catalogue
+    from edge_vis.catalogue.jsidl import load_jsidl
+
+    extended = catalogue.copy()
+    extended.add(load_jsidl(list(profile.jsidl)), source="profile JSIDL")
+    return extended
+
+
+__all__ = ["Runtime"]
