@@ -33,14 +33,16 @@ import errno
 import logging
 import os
 from collections.abc import Sequence
-from typing import ClassVar
+from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import serial  # pyserial
 
-from edge_vis.errors import ConfigError, LinkError
+from edge_vis.errors import LinkError
 from edge_vis.jaus.serial_framing import FRAME_OVERHEAD, SerialDeframer, SerialError, frame
 from edge_vis.jaus.transport import Packet
-from edge_vis.routing.link import Link, LinkUrl, Peer
+from edge_vis.routing.link import Link, LinkOptions, LinkUrl, Peer
+from edge_vis.schema import setting
 
 log = logging.getLogger(__name__)
 
@@ -49,25 +51,40 @@ MAX_WRITE_BUFFER = 64 * 1024
 _READ_SIZE = 65536
 
 
+@dataclass(frozen=True, slots=True)
+class SerialOptions(LinkOptions):
+    """The query options of a ``serial://`` URL (see the module docstring)."""
+
+    baud: int = setting(19200, ge=50, le=20_000_000)
+    rtscts: bool = False
+    reopen: float = setting(0.25, gt=0, unit="s")
+    pace: bool = True
+    frame_timeout: float = setting(1.0, gt=0, unit="s")
+
+
 class SerialLink(Link):
     """JAUS serial framing over a serial device, paced to the baud rate, self-reopening."""
 
     scheme: ClassVar[str] = "serial"
-    options: ClassVar[frozenset[str]] = frozenset(
-        {"baud", "rtscts", "reopen", "pace", "frame_timeout"}
-    )
+    options_type: ClassVar[type[LinkOptions]] = SerialOptions
     overhead: ClassVar[int] = FRAME_OVERHEAD + 3  # framing plus typical DLE stuffing
+    config: SerialOptions
+
+    @classmethod
+    def url_problems(cls, url: LinkUrl, options: Any) -> list[tuple[str, str]]:
+        """A serial URL must name its device."""
+        if url.path or url.host:
+            return []
+        return [("url", "no device path (serial:///dev/...)")]
 
     def __init__(self, url: str | LinkUrl, *, name: str | None = None) -> None:
         super().__init__(url, name=name)
         self.path = self.url.path or self.url.host
-        if not self.path:
-            raise ConfigError([("", "url", f"{self.url}: no device path (serial:///dev/...)")])
-        self.baud = self.int_option("baud", 19200, low=50, high=20_000_000)
-        self.rtscts = self.bool_option("rtscts", False)
-        self.pace = self.bool_option("pace", True)
-        self.reopen_interval = _float_option(self, "reopen", 0.25)
-        self.frame_timeout = _float_option(self, "frame_timeout", 1.0)
+        self.baud = self.config.baud
+        self.rtscts = self.config.rtscts
+        self.pace = self.config.pace
+        self.reopen_interval = self.config.reopen
+        self.frame_timeout = self.config.frame_timeout
         # reused for every read (see links.udp: a fresh 64 KiB per read fragments the heap)
         self._buffer = memoryview(bytearray(_READ_SIZE))
         if self.bandwidth_bps is None:
@@ -244,16 +261,3 @@ class SerialLink(Link):
         self._writer_armed = False
         self._pump()
 
-
-def _float_option(link: Link, key: str, default: float) -> float:
-    text = link.url.options.get(key)
-    if not text:
-        return default
-    try:
-        value = float(text)
-    except ValueError:
-        raise ConfigError([("", f"url.{key}", f"{link.url}: {key}={text!r} is not a "
-                            "number")]) from None
-    if value <= 0:
-        raise ConfigError([("", f"url.{key}", f"{link.url}: {key} must be positive")])
-    return value

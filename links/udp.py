@@ -36,11 +36,13 @@ import logging
 import socket
 from collections import OrderedDict, deque
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import ClassVar
 
-from edge_vis.errors import ConfigError, DecodeError, LinkError
+from edge_vis.errors import DecodeError, LinkError
 from edge_vis.jaus.transport import JUDP_VERSION, Packet, encode_packet, unpack_datagram
-from edge_vis.routing.link import Link, LinkUrl, Peer, parse_peers
+from edge_vis.routing.link import Link, LinkOptions, LinkUrl, Peer, parse_peers
+from edge_vis.schema import setting
 
 log = logging.getLogger(__name__)
 
@@ -54,56 +56,80 @@ READ_BATCH = 64
 MAX_LEARNED = 256
 #: the largest UDP payload: the receive buffer every datagram is read into
 MAX_DATAGRAM = 65535
+#: ``multicast=`` values that disable multicast
+MULTICAST_OFF = frozenset({"off", "0", "none", "no"})
+
+
+def _group(text: str) -> str | None:
+    if text.lower() in MULTICAST_OFF or _is_multicast(text):
+        return None
+    return f"{text!r} is not a multicast group (or off)"
+
+
+def _interface(text: str) -> str | None:
+    return None if _is_ip(text) else f"interface {text!r} is not an IPv4 address"
+
+
+def _peers(text: str) -> str | None:
+    try:
+        parse_peers(text, JUDP_PORT)
+    except ValueError as exc:
+        return str(exc)
+    return None
+
+
+def _broadcast(text: str) -> str | None:
+    for target in (t.strip() for t in text.split(",") if t.strip()):
+        if target not in ("multicast", "peers", "learned") and not _is_ip(target):
+            return (f"broadcast target {target!r} is not multicast/peers/learned or an IPv4 "
+                    "address")
+    return None
+
+
+@dataclass(frozen=True, slots=True)
+class UdpOptions(LinkOptions):
+    """The query options of a ``udp://`` URL (see the module docstring)."""
+
+    #: the group carrying broadcasts; "" = 239.255.0.1 when bound to all interfaces
+    multicast: str = setting("", check=_group)
+    ttl: int = setting(16, ge=0, le=255)
+    loop: bool = False
+    interface: str = setting("0.0.0.0", check=_interface)
+    peers: str = setting("", check=_peers)
+    #: "" = multicast,peers, or peers,learned without multicast
+    broadcast: str = setting("", check=_broadcast)
+    pack: bool = False
 
 
 class UdpLink(Link):
     """JAUS over UDP: unicast to peers, broadcasts to a multicast group and/or peers."""
 
     scheme: ClassVar[str] = "udp"
-    options: ClassVar[frozenset[str]] = frozenset(
-        {"multicast", "ttl", "loop", "interface", "peers", "broadcast", "pack"}
-    )
+    options_type: ClassVar[type[LinkOptions]] = UdpOptions
     overhead: ClassVar[int] = 29  # IPv4 20 + UDP 8 + JUDP version byte 1
+    config: UdpOptions
 
     def __init__(self, url: str | LinkUrl, *, name: str | None = None) -> None:
         super().__init__(url, name=name)
-        opts = self.url.options
+        opts = self.config
         self.bind_host = self.url.host or "0.0.0.0"
         self.bind_port = self.url.port if self.url.port is not None else JUDP_PORT
-        group = opts.get("multicast", "")
-        if group.lower() in ("off", "0", "none", "no"):
+        group = opts.multicast
+        if group.lower() in MULTICAST_OFF:
             group = ""
         elif not group and self.bind_host == "0.0.0.0":
             group = JTS_MULTICAST
-        if group:
-            try:
-                if not ipaddress.IPv4Address(group).is_multicast:
-                    raise ValueError
-            except ValueError:
-                raise ConfigError([("", "url.multicast",
-                                    f"{self.url}: {group!r} is not a multicast group")]) from None
         self.multicast = group
-        self.ttl = self.int_option("ttl", 16, low=0, high=255)
-        self.multicast_loop = self.bool_option("loop", False)
-        self.interface = opts.get("interface", "") or "0.0.0.0"
-        if not _is_ip(self.interface):
-            raise ConfigError([("", "url.interface", f"{self.url}: interface "
-                                f"{self.interface!r} is not an IPv4 address")])
-        self.peers: list[tuple[str, int]] = parse_peers(opts.get("peers", ""), JUDP_PORT)
+        self.ttl = opts.ttl
+        self.multicast_loop = opts.loop
+        self.interface = opts.interface
+        self.peers: list[tuple[str, int]] = parse_peers(opts.peers, JUDP_PORT)
         default = "multicast,peers" if group else "peers,learned"
-        self.broadcast_to = [b.strip() for b in opts.get("broadcast", default).split(",")
+        self.broadcast_to = [b.strip() for b in (opts.broadcast or default).split(",")
                              if b.strip()]
-        for target in self.broadcast_to:
-            if target not in ("multicast", "peers", "learned"):
-                try:
-                    ipaddress.IPv4Address(target)
-                except ValueError:
-                    raise ConfigError([("", "url.broadcast", f"{self.url}: broadcast target "
-                                        f"{target!r} is not multicast/peers/learned or an "
-                                        "IPv4 address")]) from None
         if "multicast" in self.broadcast_to and not group:
             self.broadcast_to.remove("multicast")
-        self.pack = self.bool_option("pack", False)
+        self.pack = opts.pack
         self._sock: socket.socket | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         # datagrams the kernel would not take yet (EAGAIN): (data, target, messages)
@@ -300,6 +326,13 @@ class UdpLink(Link):
             if len(learned) > MAX_LEARNED:
                 learned.popitem(last=False)
                 self.counters.dropped("learned peers forgotten: table full")
+
+
+def _is_multicast(text: str) -> bool:
+    try:
+        return ipaddress.IPv4Address(text).is_multicast
+    except ValueError:
+        return False
 
 
 def _is_ip(text: str) -> bool:

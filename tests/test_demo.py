@@ -9,9 +9,9 @@ import sys
 from pathlib import Path
 
 import pytest
-from edge_vis.tools.sim.profile import load_profile
 
 from edge_vis.cli.demo import relay_links
+from edge_vis.tools.sim.profile import load_profile
 
 ROOT = Path(__file__).resolve().parents[1]
 

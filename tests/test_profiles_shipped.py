@@ -1,5 +1,6 @@
-"""Shipped profiles: every one passes ``edge-vis check``, and the packaged copies are the
-ones the profiles folder shows (no second copy to drift)."""
+"""Shipped profiles: every one (deployment, vehicle, sim and link profiles) passes
+``edge-vis check`` as its own kind, and the packaged copies are the ones the profiles
+folder shows (no second copy to drift)."""
 
 from __future__ import annotations
 
@@ -12,6 +13,25 @@ from edge_vis.cli import main
 ROOT = Path(__file__).resolve().parents[1]
 DEPLOYMENTS = [ROOT / "profiles" / "default.toml", ROOT / "profiles" / "demo.toml",
                ROOT / "deploy" / "relay.toml"]
+#: every TOML file shipped in profiles/ and edge_vis/data/ (some are the same file through
+#: a symlink: each is checked under both names, as a user may name either)
+SHIPPED = sorted({*(ROOT / "profiles").glob("*.toml"), *(ROOT / "profiles").glob("*/*.toml"),
+                  *(ROOT / "edge_vis" / "data").glob("*.toml"),
+                  *(ROOT / "edge_vis" / "data").glob("*/*.toml"), ROOT / "deploy" / "relay.toml"})
+KIND_BY_FOLDER = {"sim": "sim", "vehicles": "vehicle", "links": "link"}
+
+
+def test_every_shipped_profile_is_found() -> None:
+    folders = {p.parent.name for p in SHIPPED}
+    assert {"profiles", "data", "deploy", "sim", "vehicles", "links"} <= folders
+    assert len(SHIPPED) >= 18
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=lambda p: str(p.relative_to(ROOT)))
+def test_every_shipped_profile_checks_ok(path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["check", str(path)]) == 0, capsys.readouterr().err
+    kind = KIND_BY_FOLDER.get(path.parent.name, "deployment")
+    assert capsys.readouterr().out.startswith(f"OK {path}: {kind} profile: ")
 
 
 @pytest.mark.parametrize("path", DEPLOYMENTS, ids=lambda p: p.name)

@@ -10,12 +10,20 @@ from JSIDL::
     service = "urn:example:WaterQuality"  # ... from which service
     rate = 0.5                            # Hz
     fields = { turbidity = "turbidity", ph = "chemistry.ph" }   # DDS name = JAUS path
+
+The table is declared as dataclasses (:class:`GenericOptions`, :class:`GenericMapping`)
+and read by the validation kit. Before the relay starts (and in ``edge-vis check``),
+:meth:`GenericTranslator.verify` looks every message, query, service and field path up in
+the live catalogue, the profile's own JSIDL included. Field paths start at the message's
+fields: a body that is one record is flattened when decoded, so its record's name is not
+part of the path (``turbidity``, not ``water_quality_rec.turbidity``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+import difflib
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from edge_vis.kit import (
@@ -27,20 +35,60 @@ from edge_vis.kit import (
     RuleTranslator,
     declarations,
     get_path,
+    path_problem,
+    read_table,
+    setting,
 )
+
+
+def _non_empty(text: str) -> str | None:
+    return None if text else "missing (a non-empty string)"
+
+
+def _topic_name(topic: str) -> str | None:
+    if not topic:
+        return "missing (a non-empty string)"
+    return None if topic.replace("_", "").isalnum() else \
+        f"{topic!r}: letters, digits and '_' only"
 
 
 @dataclass(frozen=True, slots=True)
 class GenericMapping:
-    """One profile mapping: JAUS ``message`` -> DDS ``topic`` (type GenericReport)."""
+    """One profile mapping: JAUS ``message`` -> DDS ``topic`` (type GenericReport).
 
-    message: str
-    topic: str
-    fields: Mapping[str, str]
+    ``fields`` maps each DDS field name to a JAUS field path of ``message``; ``query``
+    asks ``service`` for the message, with ``query_fields``, at ``rate``.
+    """
+
+    message: str = setting(check=_non_empty, doc="the JAUS message to publish")
+    topic: str = setting(check=_topic_name, doc="the DDS topic to publish it on")
+    fields: Mapping[str, str] = setting(factory=dict, check=_non_empty,
+                                        unit="a JAUS field path")
     query: str = ""
     service: str = ""
-    rate: float = 1.0
-    query_fields: Mapping[str, Any] = field(default_factory=dict)
+    rate: float = setting(1.0, gt=0, le=1092, unit="Hz")
+    query_fields: Mapping[str, Any] = setting(factory=dict)
+
+    def validate(self) -> Iterator[tuple[str, str]]:
+        """A query is sent to a service: one without the other cannot be used."""
+        if bool(self.query) != bool(self.service):
+            yield ("service" if self.query else "query"), "query and service go together"
+
+
+@dataclass(frozen=True, slots=True)
+class GenericOptions:
+    """The ``[translators.generic]`` table: ``[[translators.generic.mappings]]``."""
+
+    mappings: tuple[GenericMapping, ...] = ()
+
+    def validate(self) -> Iterator[tuple[str, str]]:
+        """Each JAUS message goes to one topic."""
+        topics: dict[str, str] = {}
+        for i, m in enumerate(self.mappings):
+            if m.message in topics:
+                yield f"mappings[{i}].message", f"{m.message} is already mapped to " \
+                                                f"{topics[m.message]}"
+            topics[m.message] = m.topic
 
 
 def generic_value(value: Any) -> dict[str, Any]:
@@ -60,60 +108,55 @@ def generic_value(value: Any) -> dict[str, Any]:
 def parse_mappings(options: Mapping[str, Any], source: str = "",
                    where: str = "translators.generic") -> tuple[GenericMapping, ...]:
     """Validate the generic translator's profile table; ConfigError lists every problem."""
-    problems: list[tuple[str, str, str]] = []
-    out: list[GenericMapping] = []
-    items = options.get("mappings", [])
-    if not isinstance(items, list):
-        raise ConfigError([(source, f"{where}.mappings", "expected an array of tables")])
-    for key in options:
-        if key != "mappings":
-            problems.append((source, f"{where}.{key}", "unknown key"))
-    topics: dict[str, str] = {}
-    for i, item in enumerate(items):
-        at = f"{where}.mappings[{i}]"
-        if not isinstance(item, Mapping):
-            problems.append((source, at, "expected a table"))
-            continue
-        for key in item:
-            if key not in ("message", "topic", "fields", "query", "service", "rate",
-                           "query_fields"):
-                problems.append((source, f"{at}.{key}", "unknown key"))
-        message, topic = item.get("message"), item.get("topic")
-        fields = item.get("fields", {})
-        for key, value in (("message", message), ("topic", topic)):
-            if not isinstance(value, str) or not value:
-                problems.append((source, f"{at}.{key}", "missing (a non-empty string)"))
-        if isinstance(topic, str) and topic and not topic.replace("_", "").isalnum():
-            problems.append((source, f"{at}.topic", f"{topic!r}: letters, digits and '_' only"))
-        if not isinstance(fields, Mapping) or not all(
-                isinstance(v, str) and v for v in fields.values()):
-            problems.append((source, f"{at}.fields",
-                             "expected a table of DDS name = \"JAUS field path\""))
-            fields = {}
-        query, service = item.get("query", ""), item.get("service", "")
-        if bool(query) != bool(service):
-            problems.append((source, f"{at}.{'service' if query else 'query'}",
-                             "query and service go together"))
-        rate = item.get("rate", 1.0)
-        if isinstance(rate, bool) or not isinstance(rate, int | float) or not (
-                0 < float(rate) <= 1092):
-            problems.append((source, f"{at}.rate", f"expected a rate in Hz (0..1092], "
-                                                     f"got {rate!r}"))
-            rate = 1.0
-        query_fields = item.get("query_fields", {})
-        if not isinstance(query_fields, Mapping):
-            problems.append((source, f"{at}.query_fields", "expected a table"))
-            query_fields = {}
-        if isinstance(topic, str) and isinstance(message, str):
-            if topics.get(message) is not None:
-                problems.append((source, f"{at}.message",
-                                 f"{message} is already mapped to {topics[message]}"))
-            topics[message] = topic
-            out.append(GenericMapping(message, topic, dict(fields), str(query), str(service),
-                                      float(rate), dict(query_fields)))
-    if problems:
-        raise ConfigError(problems)
-    return tuple(out)
+    return read_options(options, source, where).mappings
+
+
+def read_options(options: Mapping[str, Any], source: str = "",
+                 where: str = "translators.generic") -> GenericOptions:
+    """The generic translator's profile table as :class:`GenericOptions`."""
+    return read_table(GenericOptions, options, file=source, path=where)
+
+
+def catalogue_problems(mapping: GenericMapping, catalogue: Any) -> Iterator[tuple[str, str]]:
+    """What ``mapping`` names that ``catalogue`` lacks, as ``(key, reason)``."""
+    names = sorted({d.name for d in catalogue})
+    defn = _lookup(catalogue, mapping.message)
+    if defn is None:
+        yield "message", f"no message {mapping.message!r} in the catalogue" \
+                         f"{_close(mapping.message, names)}"
+    else:
+        for dds, path in mapping.fields.items():
+            if problem := path_problem(defn.body, path):
+                yield f"fields.{dds}", f"{path!r} of {mapping.message}: {problem}"
+    if mapping.query:
+        query = _lookup(catalogue, mapping.query)
+        if query is None:
+            yield "query", f"no message {mapping.query!r} in the catalogue" \
+                           f"{_close(mapping.query, names)}"
+        else:
+            known = [f.name for f in query.body.fields]
+            for key in mapping.query_fields:
+                if key not in known:
+                    yield f"query_fields.{key}", (f"no field {key!r} in {mapping.query} "
+                                                  f"(fields: {', '.join(known) or 'none'})")
+    if mapping.service:
+        services = sorted({uri for d in catalogue for uri, _version in d.services})
+        if mapping.service not in services:
+            yield "service", f"no service {mapping.service!r} declares a message in the " \
+                             f"catalogue{_close(mapping.service, services)}"
+
+
+def _lookup(catalogue: Any, name: str) -> Any:
+    try:
+        return catalogue.by_name(name)
+    except KeyError:
+        return None
+
+
+def _close(name: str, names: Sequence[str]) -> str:
+    near = difflib.get_close_matches(name, names, n=1)
+    hint = f"; did you mean {near[0]!r}?" if near else ""
+    return f"{hint} (a message set of your own needs its JSIDL in catalogue.jsidl)"
 
 
 class GenericTranslator(RuleTranslator):
@@ -124,15 +167,25 @@ class GenericTranslator(RuleTranslator):
     """
 
     name = "generic"
+    options_type = GenericOptions
 
     def __init__(self, mappings: Sequence[GenericMapping] = ()) -> None:
         self.mappings: tuple[GenericMapping, ...] = ()
         super().__init__()
         self._set(tuple(mappings))
 
-    def configure(self, options: Mapping[str, Any], source: str = "") -> None:
-        """Take the mappings from the profile table ``options`` (ConfigError if bad)."""
-        self._set(parse_mappings(options, source))
+    def apply_options(self, options: GenericOptions) -> None:
+        """Take the mappings of the validated profile table."""
+        self._set(options.mappings)
+
+    def verify(self, catalogue: Any, source: str = "") -> None:
+        """Every message, query, service and field path must exist in ``catalogue``."""
+        where = f"translators.{self.name}.mappings"
+        problems = [(source, f"{where}[{i}].{key}", reason)
+                    for i, m in enumerate(self.mappings)
+                    for key, reason in catalogue_problems(m, catalogue)]
+        if problems:
+            raise ConfigError(problems)
 
     def _set(self, mappings: tuple[GenericMapping, ...]) -> None:
         self.mappings = mappings

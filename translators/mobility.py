@@ -50,7 +50,6 @@ from edge_vis.kit import (
     Action,
     Build,
     Command,
-    ConfigError,
     Const,
     From,
     Publish,
@@ -62,6 +61,7 @@ from edge_vis.kit import (
     code_of,
     label,
     number,
+    setting,
 )
 from edge_vis.kit import CommandRule as Cmd
 
@@ -213,6 +213,14 @@ def _limit_type(sample: Mapping[str, Any]) -> int:
 OPTIONAL_REPORTS = ("ReportWrenchEffort", "ReportVelocityCommand", "ReportGlobalVector",
                     "ReportLocalVector", "ReportAccelerationLimit", "ReportGeomagneticProperty")
 _OPT_IN = "asked for when listed in [translators.mobility] extra_reports"
+
+
+@dataclass(frozen=True, slots=True)
+class MobilityOptions:
+    """``[translators.mobility]``: ``extra_reports``, the :data:`OPTIONAL_REPORTS` to ask
+    for too (``["*"]`` for all of them)."""
+
+    extra_reports: tuple[str, ...] = setting((), choices=("*", *OPTIONAL_REPORTS))
 
 REPORT_RULES = (
     ReportRule("ReportGlobalPose", "GlobalPose", _GLOBAL_POSE, query="QueryGlobalPose",
@@ -530,6 +538,7 @@ class MobilityTranslator(RuleTranslator):
     """
 
     name = "mobility"
+    options_type = MobilityOptions
     report_rules = REPORT_RULES
     command_rules = COMMAND_RULES
     extra_messages = MISSION_MESSAGES
@@ -551,27 +560,9 @@ class MobilityTranslator(RuleTranslator):
         super().__init__()
         self.missions = WaypointMissions()
 
-    def configure(self, options: Mapping[str, Any], source: str = "") -> None:
-        """Take the profile's ``[translators.mobility]`` table: ``extra_reports``, the
-        :data:`OPTIONAL_REPORTS` to ask for too (``["*"]`` for all of them).
-
-        Raises ConfigError naming every bad key or name.
-        """
-        where = "translators.mobility"
-        problems: list[tuple[str, str, str]] = [
-            (source, f"{where}.{key}", "unknown key (known: extra_reports)")
-            for key in options if key != "extra_reports"]
-        wanted = options.get("extra_reports", [])
-        if not isinstance(wanted, list) or not all(isinstance(n, str) for n in wanted):
-            problems.append((source, f"{where}.extra_reports", "expected a list of report "
-                                                               "names"))
-            wanted = []
-        for i, name in enumerate(wanted):
-            if name != "*" and name not in OPTIONAL_REPORTS:
-                problems.append((source, f"{where}.extra_reports[{i}]",
-                                 f"{name!r} is not one of {', '.join(OPTIONAL_REPORTS)}"))
-        if problems:
-            raise ConfigError(problems)
+    def apply_options(self, options: MobilityOptions) -> None:
+        """Ask for the optional reports the profile lists, too."""
+        wanted = options.extra_reports
         chosen = set(OPTIONAL_REPORTS) if "*" in wanted else set(wanted)
         # instance attribute: this deployment's choice
         self.reports = (*type(self).reports, *(  # type: ignore[misc]

@@ -20,18 +20,20 @@ table) describes the medium, not the transport plugin::
     telemetry = 1
     bulk = 0
 
-:func:`read_link_spec` validates such a table and records ``(file, key path, message)``
-problems instead of raising, so ``edge-vis check`` can list them all.
+:class:`LinkSpec` is the schema of such a table: the validation kit (:mod:`edge_vis.schema`)
+reads it, so each key's type, default and range is written once, on its field, and every
+problem is recorded as ``(file, key path, message)`` for ``edge-vis check`` to list.
 """
 
 from __future__ import annotations
 
-import math
 import tomllib
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
+
+from edge_vis.schema import Reader, setting, toml_keys
 
 #: traffic classes, most urgent first; the scheduler serves them in this order
 TRAFFIC_CLASSES: tuple[str, ...] = ("control", "command", "liveness", "telemetry", "bulk")
@@ -40,29 +42,24 @@ DEFAULT_PRIORITIES: Mapping[str, int] = {
     "control": 3, "command": 3, "liveness": 2, "telemetry": 1, "bulk": 0,
 }
 
-#: keys of a link profile (inline or file)
-SPEC_KEYS = frozenset({"bit_rate", "overhead", "mtu", "latency", "half_duplex", "duty_cycle",
-                       "budget", "priorities", "description", "bits_per_byte", "reserve"})
-
-Problem = tuple[str, str, str]
-
 
 @dataclass(frozen=True, slots=True)
 class LinkSpec:
     """The medium of one link. ``bit_rate`` 0 = unknown: nothing is planned for it."""
 
-    bit_rate: float = 0.0
-    overhead: int = 18
-    mtu: int = 4079
-    latency: float = 0.0
+    bit_rate: float = setting(0.0, ge=0, le=1e12, unit="bit/s")
+    overhead: int = setting(18, ge=0, le=4096, unit="bytes")
+    mtu: int = setting(4079, ge=32, le=4079, unit="bytes")
+    latency: float = setting(0.0, ge=0, le=60, unit="s")
     half_duplex: bool = True
-    duty_cycle: float = 1.0
-    budget: float = 0.8
-    reserve: float = 0.1
-    bits_per_byte: int = 8
-    priorities: Mapping[str, int] = field(default_factory=lambda: dict(DEFAULT_PRIORITIES))
+    duty_cycle: float = setting(1.0, gt=0, le=1)
+    budget: float = setting(0.8, gt=0, le=1)
+    reserve: float = setting(0.1, ge=0, le=0.9)
+    bits_per_byte: int = setting(8, ge=8, le=12)
+    priorities: Mapping[str, int] = setting(factory=lambda: dict(DEFAULT_PRIORITIES), ge=0,
+                                            le=3, keys=TRAFFIC_CLASSES, merge=True)
     description: str = ""
-    source: str = ""
+    source: str = setting("", toml=False)
 
     @property
     def limited(self) -> bool:
@@ -104,83 +101,33 @@ class LinkSpec:
         """JAUS header priority of ``traffic_class``."""
         return self.priorities.get(traffic_class, DEFAULT_PRIORITIES.get(traffic_class, 1))
 
-
-def _check(problems: list[Problem], file: str, path: str) -> Callable[[str, str], None]:
-    def add(key: str, message: str) -> None:
-        problems.append((file, f"{path}.{key}" if path else key, message))
-    return add
-
-
-def _number(value: Any) -> float | None:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        return None
-    return float(value)
+    def validate(self) -> Iterator[tuple[str, str]]:
+        """Telemetry must never delay commands or access control on a busy link."""
+        priorities = {**DEFAULT_PRIORITIES, **self.priorities}
+        if min(priorities["command"], priorities["control"]) < priorities["telemetry"]:
+            yield "priorities", "commands and control must not rank below telemetry"
 
 
-def read_link_spec(data: Mapping[str, Any], *, file: str, path: str,
-                   problems: list[Problem], base: LinkSpec | None = None) -> LinkSpec:
-    """Validate the link-profile keys of ``data`` on top of ``base``.
+#: keys of a link profile (inline or file)
+SPEC_KEYS = toml_keys(LinkSpec)
 
-    Keys outside :data:`SPEC_KEYS` are left to the caller (the deployment's link table
-    also holds ``url`` and ``profile``).
-    """
-    add = _check(problems, file, path)
-    spec = base or LinkSpec(source=file)
-    values: dict[str, Any] = {}
 
-    def real(key: str, low: float, high: float, *, open_low: bool = False) -> None:
-        if key not in data:
-            return
-        value = _number(data[key])
-        if value is None or not math.isfinite(value):
-            add(key, f"expected a number, got {data[key]!r}")
-        elif value < low or value > high or (open_low and value == low):
-            bound = f"> {low:g}" if open_low else f">= {low:g}"
-            add(key, f"must be {bound} and <= {high:g}, got {value:g}")
-        else:
-            values[key] = value
+def read_link_spec(reader: Reader, data: Mapping[str, Any], path: str = "",
+                   base: LinkSpec | None = None) -> LinkSpec | None:
+    """The link-profile keys of ``data`` (a link table of a deployment, or a whole link
+    profile file) on top of ``base``; keys outside :data:`SPEC_KEYS` are the caller's."""
+    own = {k: v for k, v in data.items() if k in SPEC_KEYS}
+    base = base or LinkSpec(source=reader.file)
+    return reader.read(LinkSpec, own, path, base=base)
 
-    real("bit_rate", 0.0, 1e12)
-    real("latency", 0.0, 60.0)
-    real("duty_cycle", 0.0, 1.0, open_low=True)
-    real("budget", 0.0, 1.0, open_low=True)
-    real("reserve", 0.0, 0.9)
-    for key, low, high in (("overhead", 0, 4096), ("mtu", 32, 4079), ("bits_per_byte", 8, 12)):
-        if key in data:
-            value = data[key]
-            if isinstance(value, bool) or not isinstance(value, int):
-                add(key, f"expected an integer, got {value!r}")
-            elif not low <= value <= high:
-                add(key, f"must be in {low}..{high}, got {value}")
-            else:
-                values[key] = value
-    if "half_duplex" in data:
-        if isinstance(data["half_duplex"], bool):
-            values["half_duplex"] = data["half_duplex"]
-        else:
-            add("half_duplex", f"expected true or false, got {data['half_duplex']!r}")
-    if "description" in data:
-        values["description"] = str(data["description"])
-    if "priorities" in data:
-        table = data["priorities"]
-        if not isinstance(table, Mapping):
-            add("priorities", "expected a table {class = 0..3}")
-        else:
-            priorities = dict(spec.priorities)
-            for name, value in table.items():
-                if name not in TRAFFIC_CLASSES:
-                    add(f"priorities.{name}", "unknown traffic class (classes: "
-                                              f"{', '.join(TRAFFIC_CLASSES)})")
-                elif isinstance(value, bool) or not isinstance(value, int) \
-                        or not 0 <= value <= 3:
-                    add(f"priorities.{name}", f"must be a JAUS priority 0..3, got {value!r}")
-                else:
-                    priorities[name] = value
-            if priorities["command"] < priorities["telemetry"] \
-                    or priorities["control"] < priorities["telemetry"]:
-                add("priorities", "commands and control must not rank below telemetry")
-            values["priorities"] = priorities
-    return replace(spec, **values)
+
+def read_link_profile(reader: Reader, data: Mapping[str, Any]) -> LinkSpec | None:
+    """A whole link profile file (``profiles/links/*.toml``): it must give its bit rate."""
+    if "bit_rate" not in data:
+        reader.problem("bit_rate", "missing: a link profile needs its bit rate")
+    before = len(reader.problems)
+    spec = reader.read(LinkSpec, data, "", base=LinkSpec(source=reader.file))
+    return spec if "bit_rate" in data and len(reader.problems) == before else None
 
 
 def link_profile_dirs(base_dir: Path | None) -> list[Path]:
@@ -206,26 +153,20 @@ def find_link_profile(name: str, base_dir: Path | None) -> Path | None:
     return None
 
 
-def load_link_spec(name: str, *, base_dir: Path | None, file: str, path: str,
-                   problems: list[Problem]) -> LinkSpec | None:
-    """Read link profile ``name`` (see :func:`find_link_profile`); None on a problem."""
+def load_link_spec(name: str, *, base_dir: Path | None, reader: Reader,
+                   path: str) -> LinkSpec | None:
+    """Read link profile ``name`` (see :func:`find_link_profile`) for the key ``path`` of
+    ``reader``'s file; None on a problem, which ``reader`` records."""
     target = find_link_profile(name, base_dir)
     if target is None:
-        problems.append((file, path, f"no link profile {name!r} (looked in "
-                                     f"{', '.join(str(d) for d in link_profile_dirs(base_dir))})"))
+        reader.problem(path, f"no link profile {name!r} (looked in "
+                             f"{', '.join(str(d) for d in link_profile_dirs(base_dir))})")
         return None
+    own = reader.for_file(str(target), target.parent)
     try:
         with open(target, "rb") as stream:
             data = tomllib.load(stream)
     except (OSError, tomllib.TOMLDecodeError) as exc:
-        problems.append((str(target), "", f"cannot read link profile: {exc}"))
+        own.problem("", f"cannot read link profile: {exc}")
         return None
-    before = len(problems)
-    for key in data:
-        if key not in SPEC_KEYS:
-            problems.append((str(target), key, "unknown key"))
-    if "bit_rate" not in data:
-        problems.append((str(target), "bit_rate", "missing: a link profile needs its bit rate"))
-    spec = read_link_spec(data, file=str(target), path="", problems=problems,
-                          base=LinkSpec(source=str(target)))
-    return spec if len(problems) == before else None
+    return read_link_profile(own, data)

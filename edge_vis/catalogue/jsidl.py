@@ -49,6 +49,7 @@ import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 from xml.parsers import expat
 
 from edge_vis.codec.types import (
@@ -82,6 +83,9 @@ from edge_vis.codec.types import (
     u64,
 )
 from edge_vis.errors import ConfigError
+
+if TYPE_CHECKING:
+    from edge_vis.catalogue import Catalogue
 
 __all__ = ["JsidlModel", "load_jsidl", "parse_files"]
 
@@ -885,3 +889,22 @@ def load_jsidl(
     Raises :class:`ConfigError` naming file, element and problem for malformed input.
     """
     return parse_files(paths).messages(service_set)
+
+
+def profile_catalogue(jsidl: Iterable[str | Path]) -> Catalogue:
+    """The relay's catalogue: the default one plus the messages of a profile's
+    ``catalogue.jsidl`` files (the default itself when there are none).
+
+    One function for ``edge-vis run`` and ``edge-vis check``, so both see the same
+    messages. Raises ConfigError naming a file that does not parse, PluginConflictError
+    for a code already taken by another definition.
+    """
+    from edge_vis.catalogue import default_catalogue
+
+    catalogue = default_catalogue()
+    files = list(jsidl)
+    if not files:
+        return catalogue
+    extended = catalogue.copy()
+    extended.add(load_jsidl(files), source="profile JSIDL")
+    return extended

@@ -21,6 +21,7 @@ from edge_vis.config import (
     DdsProfile,
     LinkProfile,
     RelayProfile,
+    link_problems,
     load_default_profile,
     load_profile,
 )
@@ -62,9 +63,13 @@ def build_profile(args: argparse.Namespace) -> RelayProfile:
     profile = load_profile(args.profile) if args.profile else load_default_profile()
     changes: dict[str, object] = {}
     if args.link:
-        changes["links"] = tuple(
-            LinkProfile(name=f"link{i}", url=url) for i, url in enumerate(args.link)
-        )
+        links = tuple(LinkProfile(name=f"link{i}", url=url) for i, url in enumerate(args.link))
+        # checked as a profile's links are (edge-vis check), before anything opens
+        problems = [("--link", key, reason) for link in links
+                    for key, reason in link_problems(link)]
+        if problems:
+            raise ConfigError(problems)
+        changes["links"] = links
     if args.id:
         try:
             changes["jaus_id"] = JausAddress.parse(args.id)

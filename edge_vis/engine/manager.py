@@ -20,7 +20,7 @@ from typing import Any
 
 from edge_vis import plugins
 from edge_vis.config import TranslatorSelection
-from edge_vis.errors import PluginConflictError, PluginLoadError
+from edge_vis.errors import ConfigError, PluginConflictError, PluginLoadError
 from edge_vis.kit.actions import Action
 from edge_vis.kit.contract import ReportSpec, Translator, TranslatorContext
 
@@ -88,6 +88,18 @@ class TranslationManager:
                 instance.configure(table)  # raises ConfigError naming the bad keys
             loaded.append(instance)
         return cls(loaded)
+
+    def verify(self, catalogue: Any, source: str = "") -> None:
+        """Check what each translator's options name against ``catalogue`` (the relay's,
+        with the profile's JSIDL); one ConfigError lists every problem of every one."""
+        problems: list[tuple[str, str, str]] = []
+        for tr in self.translators:
+            try:
+                tr.verify(catalogue, source)
+            except ConfigError as exc:
+                problems.extend(exc.problems)
+        if problems:
+            raise ConfigError(problems)
 
     # -- routing -----------------------------------------------------------------------
 

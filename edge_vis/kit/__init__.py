@@ -11,7 +11,10 @@ A translator plugin imports from here and from nothing else of edge-vis::
   :class:`Command`, :class:`DeclareVehicle` (the engine's own :class:`SendMessage` and
   :class:`ShutdownComplete` live beside them);
 * the rule vocabulary (:mod:`edge_vis.kit.rules`): report and command tables that
-  :class:`RuleTranslator` runs and ``edge-vis mappings`` prints.
+  :class:`RuleTranslator` runs and ``edge-vis mappings`` prints, and :func:`path_problem`
+  to check a field path against a message definition;
+* :func:`setting` and :func:`read_table`, from the validation kit (:mod:`edge_vis.schema`),
+  to declare a translator's options as a dataclass (:attr:`Translator.options_type`).
 
 Control, events, throttling and the dead-man stop are the engine's: a translator only maps.
 """
@@ -58,9 +61,11 @@ from edge_vis.kit.rules import (
     get_path,
     label,
     number,
+    path_problem,
     put,
     set_path,
 )
+from edge_vis.schema import read_table, setting
 
 __all__ = [
     "NAN", "STATUS_NAMES", "Action", "Build", "Command", "CommandRule", "Computed",
@@ -68,5 +73,5 @@ __all__ = [
     "PutEach", "ReportRule", "ReportSpec", "RuleTranslator", "SendMessage", "ShutdownComplete",
     "Spec", "Translator", "TranslatorContext", "VehicleView", "clamp", "code_of",
     "declarations", "derive_vehicle_id", "describe_rules", "extract", "flags", "get_path",
-    "label", "number", "put", "set_path",
+    "label", "number", "path_problem", "put", "read_table", "set_path", "setting",
 ]

@@ -13,11 +13,17 @@ class attributes, what it deals with, so conflicts are found at start-up:
 
 Call order (one translator instance per engine)::
 
-    __init__()  ->  configure(table)?  ->  ( on_message | on_sample | on_vehicle )*
+    __init__()  ->  configure(table)?  ->  verify(catalogue)
+                ->  ( on_message | on_sample | on_vehicle )*
 
-``configure`` receives the profile's ``[translators.NAME]`` table when there is one (the
-default refuses any table: a translator without options says so); ``describe`` gives the
-rows of the mapping table (``edge-vis mappings``; the default lists ``messages``).
+A translator with options declares them as a dataclass, :attr:`Translator.options_type`;
+``configure`` reads the profile's ``[translators.NAME]`` table against it with the
+validation kit (:mod:`edge_vis.schema`: unknown keys, types, ranges, all named with their
+key path) and hands the result to ``apply_options``. A translator without an options type
+refuses any table. ``verify`` checks what the options name against the live catalogue
+(messages, field paths) before the relay starts; ``edge-vis check`` calls it too.
+``describe`` gives the rows of the mapping table (``edge-vis mappings``; the default lists
+``messages``).
 
 Every hook receives a read-only :class:`TranslatorContext` and returns a list of actions
 (:class:`~edge_vis.kit.actions.Publish`, :class:`~edge_vis.kit.actions.Command`,
@@ -37,6 +43,7 @@ from typing import Any, ClassVar
 from edge_vis.errors import ConfigError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.actions import Action
+from edge_vis.schema import read_table
 
 #: Management states (ReportStatus.status), AS5710 Management service.
 STATUS_NAMES: Mapping[int, str] = {
@@ -123,6 +130,8 @@ class Translator(ABC):  # noqa: B024 - every hook has a harmless default
     #: DDS topics of this translator's own types (``edge_vis.dds.topics.TopicSpec``), for
     #: custom translators whose data fits none of the shipped model's topics
     topic_types: ClassVar[tuple[Any, ...]] = ()
+    #: the dataclass its ``[translators.NAME]`` table is read into; None: takes no options
+    options_type: ClassVar[type | None] = None
 
     def on_message(
         self, name: str, fields: Mapping[str, Any], ctx: TranslatorContext
@@ -141,10 +150,24 @@ class Translator(ABC):  # noqa: B024 - every hook has a harmless default
         return []
 
     def configure(self, options: Mapping[str, Any], source: str = "") -> None:
-        """Take the profile's ``[translators.NAME]`` table; raise ConfigError naming every
-        bad key. The default takes no options."""
-        raise ConfigError([(source, f"translators.{self.name or type(self).__name__}",
-                            "this translator takes no options")])
+        """Take the profile's ``[translators.NAME]`` table (from file ``source``).
+
+        The table is read against :attr:`options_type` and the result given to
+        :meth:`apply_options`; raises ConfigError naming every bad key. A translator
+        without an options type takes no table.
+        """
+        where = f"translators.{self.name or type(self).__name__}"
+        if self.options_type is None:
+            raise ConfigError([(source, where, "this translator takes no options")])
+        self.apply_options(read_table(self.options_type, options, file=source, path=where))
+
+    def apply_options(self, options: Any) -> None:  # noqa: B027 - an optional hook
+        """Use validated options (an instance of :attr:`options_type`)."""
+
+    def verify(self, catalogue: Any, source: str = "") -> None:  # noqa: B027 - optional
+        """Check the configured options against ``catalogue`` (the relay's live one, with
+        the profile's JSIDL) before anything runs; raise ConfigError naming each message,
+        service or field path that does not exist. The default has nothing to check."""
 
     def describe(self) -> list[dict[str, Any]]:
         """Rows of the mapping table, one per JAUS message (see ``edge-vis mappings``)."""

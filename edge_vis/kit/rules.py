@@ -42,6 +42,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Union
 
+from edge_vis.codec.types import BitField, List, Record, VarFormat, Variant
 from edge_vis.kit.actions import Action, Command, Publish
 from edge_vis.kit.contract import ReportSpec, Translator, TranslatorContext
 
@@ -191,6 +192,55 @@ def get_path(fields: Any, path: str, default: Any = None) -> Any:
         else:
             return default
     return value
+
+
+def path_problem(body: Record, path: str) -> str:
+    """Why :func:`get_path` can find nothing at ``path`` in a message whose body is
+    ``body`` (its definition); "" when the path exists.
+
+    Paths start at the body's fields: a body that is one record is flattened when decoded,
+    so ``"pack_rec.pack_id"`` is refused with the path to write instead (``"pack_id"``).
+    """
+    steps = path.split(".")
+    problem = _path_problem(body, steps, [])
+    if problem and len(steps) > 1 and not any(f.name == steps[0] for f in body.fields) \
+            and not _path_problem(body, steps[1:], []):
+        rest = ".".join(steps[1:])
+        return (f"no field {steps[0]!r} at the top of the message: a body of one record is "
+                f"flattened, so paths start at its fields; write {rest!r}")
+    return problem
+
+
+def _path_problem(node: Any, steps: list[str], done: list[str]) -> str:
+    if not steps:
+        return ""
+    step, rest, here = steps[0], steps[1:], ".".join(done) or "the message"
+    if not step:
+        return f"empty step in the path after {here}"
+    if isinstance(node, Record):
+        for member in node.fields:
+            if member.name == step:
+                return _path_problem(member.type, rest, [*done, step])
+        names = ", ".join(f.name for f in node.fields) or "none"
+        return f"no field {step!r} in {here} (fields: {names})"
+    if isinstance(node, Variant):
+        names = [a.name for a in node.alternatives]
+        if step == "*":
+            found = [_path_problem(a.type, rest, [*done, step]) for a in node.alternatives]
+            return "" if "" in found or not found else found[0]
+        for alternative in node.alternatives:
+            if alternative.name == step:
+                return _path_problem(alternative.type, rest, [*done, step])
+        return f"no alternative {step!r} in {here} (alternatives: {', '.join(names)}, or *)"
+    if isinstance(node, BitField | VarFormat):
+        names = [sub.name for sub in node.subfields] if isinstance(node, BitField) \
+            else ["format", "data"]
+        if step not in names:
+            return f"no sub-field {step!r} in {here} (sub-fields: {', '.join(names)})"
+        return f"{here}.{step} is a single value: nothing is inside it" if rest else ""
+    if isinstance(node, List):
+        return f"{here} is a list: a path cannot enter it (it names the whole list)"
+    return f"{here} is a single value: nothing is inside it"
 
 
 def set_path(fields: dict[str, Any], path: str, value: Any) -> None:

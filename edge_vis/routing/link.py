@@ -4,7 +4,11 @@ A link is chosen by a URL whose scheme is the name of its entry point in the gro
 ``edge_vis.links`` (``udp://0.0.0.0:3794?multicast=239.255.0.1``,
 ``serial:///dev/ttyUSB0?baud=57600``, ``loop://bench``). Query options configure the
 plugin; every link understands ``mtu`` (largest payload per packet, bytes) and
-``bandwidth`` (bits per second the medium carries, for pacing).
+``bandwidth`` (bits per second the medium carries, for pacing). A plugin declares its
+options once, as a dataclass (:class:`LinkOptions` or a subclass, see
+:mod:`edge_vis.schema`): :meth:`Link.parse_options` validates a URL against it without
+opening anything, and the constructor uses the same method, so ``edge-vis check``
+refuses exactly what ``edge-vis run`` would. :func:`check_link_url` does it by URL.
 
 Life cycle (the runtime is one asyncio loop; every call is made from it)::
 
@@ -35,11 +39,12 @@ from abc import ABC, abstractmethod
 from collections import Counter
 from collections.abc import Callable, Hashable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Any, ClassVar
 from urllib.parse import parse_qsl, urlsplit
 
-from edge_vis.errors import ConfigError
+from edge_vis.errors import ConfigError, PluginLoadError, PluginNotFoundError
 from edge_vis.jaus.transport import JTS_MAX_PAYLOAD, Packet
+from edge_vis.schema import Reader, setting
 
 log = logging.getLogger(__name__)
 
@@ -72,7 +77,8 @@ class LinkUrl:
         """Split ``scheme://host:port/path?k=v&...``; raise :class:`ConfigError` if malformed."""
         parts = urlsplit(text)
         if not parts.scheme or "://" not in text:
-            raise ConfigError([("", "url", f"{text!r} is not a link URL (scheme://...)")])
+            raise ConfigError([("", "url", f"{text!r} is not a link URL: no scheme "
+                                           "(e.g. udp://0.0.0.0:3794)")])
         try:
             port = parts.port
         except ValueError as exc:
@@ -91,6 +97,18 @@ class LinkUrl:
 
     def __str__(self) -> str:
         return self.text
+
+
+@dataclass(frozen=True, slots=True)
+class LinkOptions:
+    """The query options every link understands; a plugin's options subclass this."""
+
+    #: largest JAUS payload per packet, bytes
+    mtu: int = setting(JTS_MAX_PAYLOAD, ge=16, le=0xFFFF - 16, unit="bytes")
+    #: bits per second the medium carries, for pacing (None: unknown)
+    bandwidth: int | None = setting(None, ge=1, le=10**12, unit="bit/s")
+    #: the link's name in logs and status (default: the URL)
+    name: str = ""
 
 
 @dataclass(frozen=True, slots=True)
@@ -230,25 +248,19 @@ class Link(ABC):
     """
 
     scheme: ClassVar[str] = ""
-    #: query options this plugin understands beyond the common ones
-    options: ClassVar[frozenset[str]] = frozenset()
-    common_options: ClassVar[frozenset[str]] = frozenset({"mtu", "bandwidth", "name"})
+    #: the dataclass of the query options this plugin understands
+    options_type: ClassVar[type[LinkOptions]] = LinkOptions
     #: bytes the medium adds to each packet's data size (for pacing and budgets)
     overhead: ClassVar[int] = 0
 
     def __init__(self, url: str | LinkUrl, *, name: str | None = None) -> None:
         self.url = url if isinstance(url, LinkUrl) else LinkUrl.parse(url)
-        unknown = set(self.url.options) - self.options - self.common_options
-        if unknown:
-            known = ", ".join(sorted(self.options | self.common_options))
-            raise ConfigError([("", "url", f"{self.url}: unknown option(s) "
-                                f"{', '.join(sorted(unknown))} (known: {known})")])
-        self.name = name or self.url.options.get("name") or str(self.url)
-        self.mtu: int = self.int_option("mtu", JTS_MAX_PAYLOAD, low=16, high=0xFFFF - 16)
-        bandwidth = self.url.options.get("bandwidth")
-        self.bandwidth_bps: float | None = (
-            float(self.int_option("bandwidth", 0, low=1, high=10**12)) if bandwidth else None
-        )
+        #: the validated query options (an instance of :attr:`options_type`)
+        self.config: Any = self.parse_options(self.url)
+        self.name = name or self.config.name or str(self.url)
+        self.mtu: int = self.config.mtu
+        bandwidth = self.config.bandwidth
+        self.bandwidth_bps: float | None = float(bandwidth) if bandwidth else None
         self.counters = LinkCounters()
         self.state = "new"
         self._deliver: DeliverCallback | None = None
@@ -256,32 +268,31 @@ class Link(ABC):
         self._taps: list[TapCallback] = []
 
     # -- options -----------------------------------------------------------------------
-    def int_option(self, key: str, default: int, *, low: int, high: int) -> int:
-        """An integer query option within ``[low, high]``, or ``default`` when absent."""
-        text = self.url.options.get(key)
-        if text is None or text == "":
-            return default
-        try:
-            value = int(text, 0)
-        except ValueError:
-            raise ConfigError([("", f"url.{key}", f"{self.url}: {key}={text!r} is not an "
-                                "integer")]) from None
-        if not low <= value <= high:
-            raise ConfigError([("", f"url.{key}", f"{self.url}: {key}={value} outside "
-                                f"{low}..{high}")])
-        return value
+    @classmethod
+    def parse_options(cls, url: str | LinkUrl) -> LinkOptions:
+        """Validate ``url`` for this plugin without opening anything; return its options.
 
-    def bool_option(self, key: str, default: bool) -> bool:
-        """A boolean query option (1/0, true/false, yes/no, on/off)."""
-        text = self.url.options.get(key)
-        if text is None or text == "":
-            return default
-        lowered = text.lower()
-        if lowered in ("1", "true", "yes", "on"):
-            return True
-        if lowered in ("0", "false", "no", "off"):
-            return False
-        raise ConfigError([("", f"url.{key}", f"{self.url}: {key}={text!r} is not a boolean")])
+        The query is read against :attr:`options_type` (unknown options, types, ranges),
+        then :meth:`url_problems` checks the rest of the URL. Raises
+        :class:`~edge_vis.errors.ConfigError` naming every problem as ``url.OPTION``.
+        """
+        parsed = url if isinstance(url, LinkUrl) else LinkUrl.parse(url)
+        reader = Reader(text=True, unknown="unknown option", list_known=True)
+        options = reader.read(cls.options_type, parsed.options, "url")
+        if options is not None and not reader.problems:
+            for key, reason in cls.url_problems(parsed, options):
+                reader.problem(key, reason)
+        if reader.problems:
+            raise ConfigError([(f, key, f"{parsed}: {reason}")
+                               for f, key, reason in reader.problems])
+        assert options is not None
+        return options
+
+    @classmethod
+    def url_problems(cls, url: LinkUrl, options: Any) -> list[tuple[str, str]]:
+        """Problems of the URL beyond its query options, as ``(key, reason)``; the key
+        is ``url`` or ``url.OPTION``. The default finds none."""
+        return []
 
     # -- life cycle --------------------------------------------------------------------
     async def open(self, deliver: DeliverCallback, on_state: StateCallback | None = None) -> None:
@@ -387,14 +398,33 @@ class Link(ABC):
 def link_class(scheme: str) -> type[Link]:
     """The :class:`Link` subclass registered under ``scheme`` in ``edge_vis.links``.
 
-    Raises :class:`~edge_vis.errors.PluginNotFoundError` (listing what is installed) or
+    Raises :class:`~edge_vis.errors.PluginNotFoundError` naming the installed schemes, or
     :class:`~edge_vis.errors.PluginLoadError` (import failed, e.g. a missing optional
-    dependency such as pyserial, or the entry point is not a Link).
+    dependency such as pyserial, or the entry point is not a packet link).
     """
     from edge_vis import plugins
 
-    cls: type[Link] = plugins.load(plugins.LINKS, scheme, Link)
-    return cls
+    installed = sorted(plugins.available(plugins.LINKS))
+    if scheme not in installed:
+        raise PluginNotFoundError(f"unknown link scheme {scheme!r} (installed: "
+                                  f"{', '.join(installed) or 'none'})")
+    found = plugins.load(plugins.LINKS, scheme)
+    if not (isinstance(found, type) and issubclass(found, Link)):
+        kind = getattr(found, "kind", "")
+        what = f"the {kind} channel" if kind else f"a {type(found).__name__}"
+        raise PluginLoadError(f"link scheme {scheme!r} is {what}, not a packet link")
+    return found
+
+
+def check_link_url(url: str) -> LinkOptions:
+    """Validate ``url`` and its options exactly as :func:`create_link` does, opening
+    nothing: the same plugin lookup and :meth:`Link.parse_options`.
+
+    Raises :class:`~edge_vis.errors.ConfigError` (a bad URL or option) or
+    :class:`~edge_vis.errors.PluginError` (no plugin of that scheme, or it cannot load).
+    """
+    parsed = LinkUrl.parse(url)
+    return link_class(parsed.scheme).parse_options(parsed)
 
 
 def create_link(url: str, *, name: str | None = None) -> Link:
@@ -404,16 +434,18 @@ def create_link(url: str, *, name: str | None = None) -> Link:
 
 
 def parse_peers(text: str, default_port: int) -> list[tuple[str, int]]:
-    """``"10.0.0.5:3794,10.0.0.6"`` → ``[("10.0.0.5", 3794), ("10.0.0.6", default_port)]``."""
+    """``"10.0.0.5:3794,10.0.0.6"`` → ``[("10.0.0.5", 3794), ("10.0.0.6", default_port)]``.
+
+    Raises ValueError naming a peer that is not ``host[:port]``.
+    """
     peers = []
     for item in filter(None, (part.strip() for part in text.split(","))):
         host, sep, port = item.rpartition(":")
         if not sep:
             host, port = item, str(default_port)
-        try:
-            peers.append((host.strip("[]"), int(port)))
-        except ValueError:
-            raise ConfigError([("", "url.peers", f"peer {item!r} is not host:port")]) from None
+        if not host or not port.isdigit() or int(port) > 0xFFFF:
+            raise ValueError(f"peer {item!r} is not host:port")
+        peers.append((host.strip("[]"), int(port)))
     return peers
 
 

@@ -29,14 +29,14 @@ from typing import Any
 from edge_vis import plugins
 from edge_vis.bandwidth.demands import FleetPlanner
 from edge_vis.bandwidth.linkspec import DEFAULT_PRIORITIES, LinkSpec
-from edge_vis.catalogue import Catalogue, default_catalogue
-from edge_vis.config import BulkProfile, RelayProfile
+from edge_vis.catalogue import Catalogue
+from edge_vis.config import BulkProfile, LinkProfile, RelayProfile
 from edge_vis.engine.engine import Engine
 from edge_vis.errors import CodecError, EdgeVisError, EncodeError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import Broadcast, Packet
 from edge_vis.kit.actions import Publish, SendMessage, ShutdownComplete
-from edge_vis.routing.link import Link, LinkUrl, Peer
+from edge_vis.routing.link import Link, Peer, create_link
 from edge_vis.routing.router import Deliver, DeliveryFailed, Router, RouterConfig, SendPackets
 from edge_vis.routing.traffic import class_names, priority_for
 from edge_vis.shell.mirror import Mirror
@@ -140,6 +140,8 @@ class Runtime:
             planner=self.planner,
         )
         self.engine.link_of = self._link_of
+        # what the translators' options name must exist (edge-vis check does the same)
+        self.engine.manager.verify(self.catalogue, self.profile.source)
         if self._publisher_factory == "dds":
             self.publisher = self._open_dds()
         elif callable(self._publisher_factory):
@@ -147,7 +149,7 @@ class Runtime:
         if self.profile.bulk is not None:
             self._start_bulk(self.profile.bulk)
         for link_profile in self.profile.links:
-            await self._open_link(link_profile.name, link_profile.url, link_profile.bandwidth)
+            await self._open_link(link_profile)
         log.info(
             "relay %s (%s) running: links %s, translators %s",
             self.profile.jaus_id, self.profile.name, ", ".join(self.links) or "none",
@@ -159,13 +161,10 @@ class Runtime:
         self._pump_engine(loop.time())
         self._status_task = loop.create_task(self._publish_link_status())
 
-    async def _open_link(self, name: str, url: str, bandwidth: int) -> None:
-        parsed = LinkUrl.parse(url)
-        cls = plugins.load(plugins.LINKS, parsed.scheme)
-        options = dict(parsed.options)
-        if bandwidth and "bandwidth" not in options:
-            url = url + ("&" if "?" in url else "?") + f"bandwidth={bandwidth}"
-        link: Link = cls(url, name=name)
+    async def _open_link(self, link_profile: LinkProfile) -> None:
+        # the URL and the plugin edge-vis check validates (LinkProfile.link_url)
+        name, url = link_profile.name, link_profile.link_url
+        link: Link = create_link(url, name=name)
         if self._mirror is not None:
             self._mirror.attach(link)
         await link.open(self._on_packets, self._on_link_state)
@@ -529,14 +528,9 @@ def _code_of(catalogue: Catalogue, action: SendMessage) -> str | int:
 
 
 def _catalogue_for(profile: RelayProfile) -> Catalogue:
-    catalogue = default_catalogue()
-    if not profile.jsidl:
-        return catalogue
-    from edge_vis.catalogue.jsidl import load_jsidl
+    from edge_vis.catalogue.jsidl import profile_catalogue
 
-    extended = catalogue.copy()
-    extended.add(load_jsidl(list(profile.jsidl)), source="profile JSIDL")
-    return extended
+    return profile_catalogue(profile.jsidl)
 
 
 __all__ = ["Runtime"]

@@ -15,15 +15,23 @@ from __future__ import annotations
 import asyncio
 import itertools
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import ClassVar
 
 from edge_vis.errors import DecodeError
 from edge_vis.jaus.transport import Packet, pack_datagram, unpack_datagram
-from edge_vis.routing.link import Link, LinkUrl, Peer
+from edge_vis.routing.link import Link, LinkOptions, LinkUrl, Peer
 from edge_vis.routing.router import Action, Deliver, DeliveryFailed, Router, SendPackets
 
 _BUSES: dict[str, dict[str, MemoryLink]] = {}
 _anonymous = itertools.count(1)
+
+
+@dataclass(frozen=True, slots=True)
+class MemoryOptions(LinkOptions):
+    """``loop://BUS?addr=NAME``: the member's name on the bus (default: a unique one)."""
+
+    addr: str = ""
 
 
 class MemoryLink(Link):
@@ -35,12 +43,12 @@ class MemoryLink(Link):
     """
 
     scheme: ClassVar[str] = "loop"
-    options: ClassVar[frozenset[str]] = frozenset({"addr"})
+    options_type: ClassVar[type[LinkOptions]] = MemoryOptions
 
     def __init__(self, url: str | LinkUrl, *, name: str | None = None) -> None:
         super().__init__(url, name=name)
         self.bus = self.url.host or "default"
-        self.addr = self.url.options.get("addr") or f"anon{next(_anonymous)}"
+        self.addr = self.config.addr or f"anon{next(_anonymous)}"
         self._loop: asyncio.AbstractEventLoop | None = None
 
     async def _open(self) -> None:

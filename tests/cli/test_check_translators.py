@@ -10,6 +10,8 @@ import pytest
 from edge_vis.cli import main
 
 HEAD = '[relay]\njaus_id = "200.1.1"\n'
+#: a user's own JSIDL: a water quality probe
+WATER_QUALITY = Path(__file__).resolve().parents[1] / "translators" / "WaterQuality.xml"
 
 
 def _check(tmp_path: Path, body: str, capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
@@ -22,14 +24,18 @@ def _check(tmp_path: Path, body: str, capsys: pytest.CaptureFixture[str]) -> tup
 
 def test_good_generic_mapping_passes_and_counts_translators(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "WaterQuality.xml").write_text(WATER_QUALITY.read_text())
     status, out = _check(tmp_path, """
+[catalogue]
+jsidl = ["WaterQuality.xml"]
+
 [translators]
 enabled = ["core", "generic"]
 
 [[translators.generic.mappings]]
 message = "ReportWaterQuality"
 topic = "WaterQuality"
-fields = { ph = "chemistry.ph" }
+fields = { ph = "ph" }
 """, capsys)
     assert status == 0, out
     assert out.startswith("OK ") and "2 translator(s)" in out

@@ -41,7 +41,7 @@ def test_bad_urls_and_options_name_the_problem() -> None:
         LinkUrl.parse("/dev/ttyUSB0")
     with pytest.raises(PluginNotFoundError, match=r"udpp.*installed: .*udp"):
         create_link("udpp://0.0.0.0:3794")
-    with pytest.raises(ConfigError, match=r"unknown option\(s\) bsud .*known: .*baud"):
+    with pytest.raises(ConfigError, match=r"url\.bsud: .*unknown option \(known: .*baud"):
         create_link("serial:///dev/ttyUSB0?bsud=57600")
     with pytest.raises(ConfigError, match=r"mtu=.abc. is not an integer"):
         create_link("udp://127.0.0.2:3794?mtu=abc")

@@ -16,7 +16,7 @@ from edge_vis.config import TranslatorSelection, from_mapping
 from edge_vis.dds.convert import converter_for
 from edge_vis.engine.manager import TranslationManager
 from edge_vis.errors import ConfigError
-from edge_vis.kit import code_of, get_path
+from edge_vis.kit import code_of, get_path, path_problem
 from edge_vis.kit.actions import Command, Publish
 from translators.generic import GenericTranslator, parse_mappings
 
@@ -80,8 +80,8 @@ def test_generic_is_empty_without_mappings() -> None:
      "unknown key"),
     ({"mappings": [{**MAPPING, "topic": "Water Quality"}]},
      "translators.generic.mappings[0].topic", "letters"),
-    ({"mappings": [{**MAPPING, "fields": {"x": 3}}]}, "translators.generic.mappings[0].fields",
-     "JAUS field path"),
+    ({"mappings": [{**MAPPING, "fields": {"x": 3}}]},
+     "translators.generic.mappings[0].fields.x", "JAUS field path"),
     ({"mappings": [MAPPING, MAPPING]}, "translators.generic.mappings[1].message", "already"),
     ({"mapping": []}, "translators.generic.mapping", "unknown key"),
     ({"mappings": {}}, "translators.generic.mappings", "array"),
@@ -198,3 +198,40 @@ def test_mappings_follow_the_profile(tmp_path: Path, capsys: pytest.CaptureFixtu
     text = capsys.readouterr().out
     assert "## generic" in text and "## mobility" not in text
     assert "fields[name=turbidity_ntu] ← turbidity" in text
+
+
+@pytest.mark.parametrize(("message", "path", "problem"), [
+    ("SetElement", "request_id_rec.request_id", ""),
+    ("SetElement", "element_list", ""),
+    ("SetElement", "element_list.element_uid", "element_list is a list: a path cannot enter"),
+    ("SetTime", "time_stamp.seconds", ""),
+    ("SetTime", "time_stamp.fortnight", "no sub-field 'fortnight' in time_stamp"),
+    ("QueryEvents", "query_events_var.*.message_code", ""),
+    ("QueryEvents", "query_events_var.message_id_rec.message_code", ""),
+    ("QueryEvents", "query_events_var.nothing", "no alternative 'nothing' in query_events_var"),
+    ("SetElement", "request_id", "no field 'request_id' in the message (fields: "),
+    ("SetElement", "request_id_rec.request_id.x", "request_id_rec.request_id is a single"),
+])
+def test_field_paths_are_checked_against_the_definition(message: str, path: str,
+                                                       problem: str) -> None:
+    """What get_path can reach in a decoded message is what path_problem accepts."""
+    found = path_problem(CAT.by_name(message).body, path)
+    assert found.startswith(problem) if problem else found == ""
+
+
+def test_a_record_qualified_path_is_refused_with_the_path_to_write(
+        catalogue: Catalogue) -> None:
+    tr = GenericTranslator()
+    tr.configure({"mappings": [{**MAPPING, "fields": {"ph": "water_quality_rec.ph"}}]}, "p.toml")
+    with pytest.raises(ConfigError) as info:
+        tr.verify(catalogue, "p.toml")
+    ((file, key, reason),) = info.value.problems
+    assert (file, key) == ("p.toml", "translators.generic.mappings[0].fields.ph")
+    assert reason.endswith("paths start at its fields; write 'ph'")
+    # and the flattened path is the one that publishes the value
+    tr.configure({"mappings": [MAPPING]}, "p.toml")
+    tr.verify(catalogue, "p.toml")
+    message = catalogue.decode(catalogue.encode("ReportWaterQuality", {"turbidity": 1.0,
+                                                                       "ph": 7.0}))
+    assert get_path(message.fields, "ph") == pytest.approx(7.0, abs=0.1)
+    assert get_path(message.fields, "water_quality_rec.ph") is None

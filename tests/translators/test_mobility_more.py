@@ -276,7 +276,9 @@ def test_bad_extra_reports_are_config_errors_naming_the_key() -> None:
         MobilityTranslator().configure({"extra_reports": ["ReportGlobalPose", 3],
                                         "rate": 2})
     keys = {key for _, key, _ in info.value.problems}
-    assert keys == {"translators.mobility.extra_reports", "translators.mobility.rate"}
+    assert keys == {"translators.mobility.extra_reports[0]",  # not an optional report
+                    "translators.mobility.extra_reports[1]",  # not a name
+                    "translators.mobility.rate"}
     with pytest.raises(ConfigError) as info:
         MobilityTranslator().configure({"extra_reports": ["ReportGlobalPose"]})
     (problem,) = info.value.problems

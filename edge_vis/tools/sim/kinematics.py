@@ -12,6 +12,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from edge_vis.schema import setting
+
 EARTH_RADIUS = 6_371_000.0
 
 
@@ -70,10 +72,10 @@ class Motion:
 
 @dataclass(frozen=True, slots=True)
 class Origin:
-    """The geodetic point the local frame is anchored to."""
+    """The geodetic point the local frame is anchored to (degrees; altitude in metres)."""
 
-    latitude: float
-    longitude: float
+    latitude: float = setting(ge=-89, le=89)
+    longitude: float = setting(ge=-180, le=180)
     altitude: float = 0.0
 
     def to_geodetic(self, x: float, y: float) -> tuple[float, float]:

@@ -23,72 +23,110 @@ A ``uuv`` does not implement JAUS Discovery: it announces itself with the vendor
 ``VendorHello`` message and reports ocean environment and ATR image notices unsolicited;
 with ``atr_dir`` set, each announced ATR image is also written there as ``atr-<id>.png``
 (ready for ``edge-vis send-image``).
-Errors are collected and raised together as one :class:`~edge_vis.errors.ConfigError`.
+The dataclasses below are the schema: the validation kit (:mod:`edge_vis.schema`) reads
+the file against them, so each key's default and range is written once, on its field.
+Every problem is collected and raised together as one :class:`~edge_vis.errors.ConfigError`.
 """
 
 from __future__ import annotations
 
-import tomllib
-from collections.abc import Mapping
-from dataclasses import dataclass, field
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
 
-from edge_vis.errors import ConfigError
+from edge_vis.config.loader import read_toml
+from edge_vis.schema import Reader, setting
 from edge_vis.tools.sim.kinematics import Origin
 
 KINDS = ("ugv", "uuv")
 
 
+def _rejects(value: bool | tuple[str, ...]) -> frozenset[str]:
+    if value is True:
+        return frozenset({"*"})
+    return frozenset() if value is False else frozenset(value)  # type: ignore[arg-type]
+
+
+def _sim_link(link: str) -> str | None:
+    """A simulated vehicle binds a loopback UDP address, or talks over a pseudo-terminal."""
+    if link == "pty":
+        return None
+    parts = urlsplit(link)
+    try:
+        port = parts.port
+    except ValueError:
+        port = None
+    if parts.scheme != "udp" or not parts.hostname or port is None:
+        return f"{link!r} must be 'udp://IP:PORT' or 'pty'"
+    if not parts.hostname.startswith("127."):
+        return f"{link!r}: simulated vehicles bind loopback (127.x)"
+    return None
+
+
+def _non_empty(text: str) -> str | None:
+    return None if text else "a non-empty vehicle name is required"
+
+
 @dataclass(frozen=True, slots=True)
 class FaultSpec:
-    """Misbehaviour injected into one vehicle."""
+    """Misbehaviour injected into one vehicle (``[vehicles.faults]``)."""
 
-    dropout_every: float = 0.0
-    dropout_duration: float = 0.0
-    dropout_first: float | None = None  # seconds after start; default: ``dropout_every``
-    dropout_reboot: bool = False
-    reject_events: frozenset[str] = frozenset()  # query names, or {"*"}
+    dropout_every: float = setting(0.0, key="dropout.every", ge=0.1, unit="s")
+    dropout_duration: float = setting(0.0, key="dropout.duration", ge=0.0, unit="s")
+    #: seconds after start; default: ``dropout_every``
+    dropout_first: float | None = setting(None, key="dropout.first", ge=0.0, unit="s")
+    dropout_reboot: bool = setting(False, key="dropout.reboot")
+    #: query names, or {"*"} (``reject_events = true``)
+    reject_events: frozenset[str] = setting(frozenset(), read_as=bool | tuple[str, ...],
+                                            convert=_rejects)
     refuse_control: bool = False
     jts_example: bool = False
-    malformed_rate: float = 0.0
+    malformed_rate: float = setting(0.0, ge=0.0, le=100.0, unit="per second")
 
     def rejects_event(self, query_name: str) -> bool:
         """Whether a CreateEvent for ``query_name`` must be rejected."""
         return "*" in self.reject_events or query_name in self.reject_events
+
+    def validate(self) -> Iterable[tuple[str, str]]:
+        """A dropout must leave the vehicle some time on the air."""
+        every, duration = self.dropout_every, self.dropout_duration
+        if (every or duration) and duration >= every:
+            yield "dropout", f"duration {duration:g} must be below every {every:g}"
 
 
 @dataclass(frozen=True, slots=True)
 class VehicleSpec:
     """One simulated vehicle (a JAUS subsystem)."""
 
-    name: str
-    subsystem: int
-    link: str
-    kind: str = "ugv"
-    node: int = 1
+    name: str = setting(check=_non_empty, doc="a non-empty vehicle name is required")
+    subsystem: int = setting(ge=1, le=65534, doc="a subsystem id (1..65534) is required")
+    link: str = setting(check=_sim_link, doc="'udp://127.x.x.x:PORT' or 'pty'")
+    kind: str = setting("ugv", choices=KINDS)
+    node: int = setting(1, ge=1, le=254)
     pty_link: str = ""
     pty_path_file: str = ""
-    baud: int = 57600
+    baud: int = setting(57600, ge=300, le=4_000_000)
     origin: Origin = field(default_factory=lambda: Origin(36.5965, -121.8747))
-    heading: float = 0.0
-    max_speed: float = 3.0
-    max_yaw_rate: float = 1.0
-    control_timeout: int = 5
-    event_timeout: int = 1
-    default_authority: int = 0
-    max_event_rate: float = 25.0
-    init_time: float = 0.5
-    image_width: int = 160
-    image_height: int = 120
-    hello_period: float = 2.0
-    environment_period: float = 1.0
-    atr_period: float = 15.0
-    bulk_image_port: int = 0
+    heading: float = setting(0.0, ge=-3.1416, le=3.1416, unit="rad")
+    max_speed: float = setting(3.0, ge=0.1, le=300, unit="m/s")
+    max_yaw_rate: float = setting(1.0, ge=0.01, le=30, unit="rad/s")
+    control_timeout: int = setting(5, ge=0, le=255, unit="s")
+    event_timeout: int = setting(1, ge=0, le=255, unit="min")
+    default_authority: int = setting(0, ge=0, le=255)
+    max_event_rate: float = setting(25.0, ge=0.1, le=1092, unit="Hz")
+    init_time: float = setting(0.5, ge=0.0, unit="s")
+    image_width: int = setting(160, ge=8, le=2048)
+    image_height: int = setting(120, ge=8, le=2048)
+    hello_period: float = setting(2.0, ge=0.05, unit="s")
+    environment_period: float = setting(1.0, ge=0.0, unit="s")
+    atr_period: float = setting(15.0, ge=0.0, unit="s")
+    bulk_image_port: int = setting(0, ge=0, le=65535)
     atr_dir: str = ""
     faults: FaultSpec = field(default_factory=FaultSpec)
-    seed: int = 0
+    #: the profile's seed plus the vehicle's index
+    seed: int = setting(0, toml=False)
 
     @property
     def is_pty(self) -> bool:
@@ -106,204 +144,49 @@ class VehicleSpec:
 class SimProfile:
     """Every vehicle of one simulation run."""
 
-    vehicles: tuple[VehicleSpec, ...]
-    source: str = ""
+    vehicles: tuple[VehicleSpec, ...] = setting(custom=True)
+    source: str = setting("", toml=False)
+    #: one seed for every vehicle's random generator
+    seed: int = 0
 
 
-class _Problems:
-    def __init__(self, source: str) -> None:
-        self.source = source
-        self.items: list[tuple[str, str, str]] = []
-
-    def add(self, path: str, message: str) -> None:
-        self.items.append((self.source, path, message))
-
-
-def _number(table: Mapping[str, Any], key: str, default: float, path: str, problems: _Problems,
-            *, low: float | None = None, high: float | None = None, integer: bool = False
-            ) -> Any:
-    value = table.get(key, default)
-    ok = isinstance(value, int) if integer else isinstance(value, int | float)
-    if isinstance(value, bool) or not ok:
-        kind = "an integer" if integer else "a number"
-        problems.add(f"{path}.{key}", f"must be {kind}, got {value!r}")
-        return default
-    if (low is not None and value < low) or (high is not None and value > high):
-        problems.add(f"{path}.{key}", f"{value} is outside [{low}, {high}]")
-        return default
-    return value
-
-
-def _faults(table: Any, path: str, problems: _Problems) -> FaultSpec:
-    if table is None:
-        return FaultSpec()
-    if not isinstance(table, dict):
-        problems.add(path, "must be a table")
-        return FaultSpec()
-    known = {"dropout", "reject_events", "refuse_control", "jts_example", "malformed_rate"}
-    for key in table:
-        if key not in known:
-            problems.add(f"{path}.{key}", f"unknown fault (known: {', '.join(sorted(known))})")
-    every = duration = 0.0
-    first: float | None = None
-    reboot = False
-    dropout = table.get("dropout")
-    if dropout is not None:
-        if not isinstance(dropout, dict):
-            problems.add(f"{path}.dropout", "must be a table {every, duration, first, reboot}")
-        else:
-            every = _number(dropout, "every", 0.0, f"{path}.dropout", problems, low=0.1)
-            duration = _number(dropout, "duration", 0.0, f"{path}.dropout", problems, low=0.0)
-            reboot = bool(dropout.get("reboot", False))
-            if "first" in dropout:
-                first = _number(dropout, "first", 0.0, f"{path}.dropout", problems, low=0.0)
-            if duration >= every:
-                problems.add(f"{path}.dropout", f"duration {duration} must be below every {every}")
-    reject = table.get("reject_events", False)
-    if reject is True:
-        rejects = frozenset({"*"})
-    elif reject is False:
-        rejects = frozenset()
-    elif isinstance(reject, list) and all(isinstance(r, str) for r in reject):
-        rejects = frozenset(reject)
-    else:
-        problems.add(f"{path}.reject_events", "must be true, false or a list of query names")
-        rejects = frozenset()
-    return FaultSpec(
-        dropout_every=every,
-        dropout_duration=duration,
-        dropout_reboot=reboot,
-        dropout_first=first,
-        reject_events=rejects,
-        refuse_control=bool(table.get("refuse_control", False)),
-        jts_example=bool(table.get("jts_example", False)),
-        malformed_rate=_number(table, "malformed_rate", 0.0, path, problems, low=0.0, high=100.0),
-    )
-
-
-def _vehicle(table: Any, index: int, seed: int, problems: _Problems) -> VehicleSpec | None:
-    path = f"vehicles[{index}]"
-    if not isinstance(table, dict):
-        problems.add(path, "must be a table")
+def read_sim_profile(reader: Reader, data: Mapping[str, Any]) -> SimProfile | None:
+    """A parsed simulation profile -> :class:`SimProfile`, problems left in ``reader``."""
+    tables = data.get("vehicles", [])
+    if not isinstance(tables, list) or not tables:
+        reader.problem("vehicles", "at least one [[vehicles]] table is required")
+        tables = []
+    found = [(i, reader.read(VehicleSpec, t, f"vehicles[{i}]")) for i, t in enumerate(tables)]
+    vehicles = [(i, v) for i, v in found if v is not None]
+    profile = reader.read(SimProfile, data, values={"vehicles": (), "source": reader.file})
+    seen: dict[tuple[str, Any], str] = {}
+    for i, table in enumerate(tables):  # as written: a vehicle refused for another reason
+        if not isinstance(table, Mapping):  # still claims its name, subsystem and link
+            continue
+        name = table.get("name")
+        for what in ("name", "subsystem", "link"):
+            key = table.get(what)
+            if key is None or isinstance(key, Mapping | list) or key == "pty":
+                continue
+            if (what, key) in seen:
+                reader.problem(f"vehicles[{i}].{what}",
+                               f"{key!r} is also used by {seen[(what, key)]}")
+            seen[(what, key)] = str(name)
+    if profile is None:
         return None
-    name = table.get("name")
-    if not isinstance(name, str) or not name:
-        problems.add(f"{path}.name", "a non-empty vehicle name is required")
-        name = f"vehicle-{index}"
-    path = f"vehicles[{index}] ({name})"
-    kind = table.get("kind", "ugv")
-    if kind not in KINDS:
-        problems.add(f"{path}.kind", f"{kind!r} is not one of {', '.join(KINDS)}")
-        kind = "ugv"
-    subsystem = _number(table, "subsystem", 0, path, problems, low=1, high=65534, integer=True)
-    if "subsystem" not in table:
-        problems.add(f"{path}.subsystem", "a subsystem id (1..65534) is required")
-    link = table.get("link")
-    if link != "pty":
-        parts = urlsplit(link) if isinstance(link, str) else None
-        try:
-            port_ok = parts is not None and parts.port is not None
-        except ValueError:
-            port_ok = False
-        if parts is None or parts.scheme != "udp" or not parts.hostname or not port_ok:
-            problems.add(f"{path}.link", f"{link!r} must be 'udp://IP:PORT' or 'pty'")
-            link = "udp://127.0.0.1:3794"
-        elif not parts.hostname.startswith("127."):
-            problems.add(f"{path}.link", f"{link!r}: simulated vehicles bind loopback (127.x)")
-    origin_table = table.get("origin", {})
-    if not isinstance(origin_table, dict):
-        problems.add(f"{path}.origin", "must be a table {latitude, longitude}")
-        origin_table = {}
-    origin = Origin(
-        _number(origin_table, "latitude", 36.5965, f"{path}.origin", problems, low=-89, high=89),
-        _number(origin_table, "longitude", -121.8747, f"{path}.origin", problems,
-                low=-180, high=180),
-        _number(origin_table, "altitude", 0.0, f"{path}.origin", problems),
-    )
-    known = {
-        "name", "kind", "subsystem", "node", "link", "pty_link", "pty_path_file", "baud",
-        "origin", "heading", "max_speed", "max_yaw_rate", "control_timeout", "event_timeout",
-        "default_authority", "max_event_rate", "init_time", "image_width", "image_height",
-        "hello_period", "environment_period", "atr_period", "bulk_image_port", "atr_dir",
-        "faults",
-    }
-    for key in table:
-        if key not in known:
-            problems.add(f"{path}.{key}", "unknown key")
-    for key in ("pty_link", "pty_path_file", "atr_dir"):
-        if not isinstance(table.get(key, ""), str):
-            problems.add(f"{path}.{key}", "must be a path string")
-    return VehicleSpec(
-        name=name,
-        subsystem=subsystem,
-        link=link if isinstance(link, str) else "pty",
-        kind=kind,
-        node=_number(table, "node", 1, path, problems, low=1, high=254, integer=True),
-        pty_link=str(table.get("pty_link", "")),
-        pty_path_file=str(table.get("pty_path_file", "")),
-        atr_dir=str(table.get("atr_dir", "")),
-        baud=_number(table, "baud", 57600, path, problems, low=300, high=4_000_000, integer=True),
-        origin=origin,
-        heading=_number(table, "heading", 0.0, path, problems, low=-3.1416, high=3.1416),
-        max_speed=_number(table, "max_speed", 3.0, path, problems, low=0.1, high=300),
-        max_yaw_rate=_number(table, "max_yaw_rate", 1.0, path, problems, low=0.01, high=30),
-        control_timeout=_number(table, "control_timeout", 5, path, problems, low=0, high=255,
-                                integer=True),
-        event_timeout=_number(table, "event_timeout", 1, path, problems, low=0, high=255,
-                              integer=True),
-        default_authority=_number(table, "default_authority", 0, path, problems, low=0,
-                                  high=255, integer=True),
-        max_event_rate=_number(table, "max_event_rate", 25.0, path, problems, low=0.1,
-                               high=1092),
-        init_time=_number(table, "init_time", 0.5, path, problems, low=0.0),
-        image_width=_number(table, "image_width", 160, path, problems, low=8, high=2048,
-                            integer=True),
-        image_height=_number(table, "image_height", 120, path, problems, low=8, high=2048,
-                             integer=True),
-        hello_period=_number(table, "hello_period", 2.0, path, problems, low=0.05),
-        environment_period=_number(table, "environment_period", 1.0, path, problems, low=0.0),
-        atr_period=_number(table, "atr_period", 15.0, path, problems, low=0.0),
-        bulk_image_port=_number(table, "bulk_image_port", 0, path, problems, low=0,
-                                high=65535, integer=True),
-        faults=_faults(table.get("faults"), f"{path}.faults", problems),
-        seed=seed + index,
-    )
+    return replace(profile, vehicles=tuple(replace(v, seed=profile.seed + i)
+                                           for i, v in vehicles))
 
 
 def parse_profile(data: Mapping[str, Any], source: str = "") -> SimProfile:
     """Build a :class:`SimProfile` from parsed TOML; raise ConfigError listing every problem."""
-    problems = _Problems(source)
-    for key in data:
-        if key not in ("seed", "vehicles"):
-            problems.add(key, "unknown key (expected seed, vehicles)")
-    seed = _number(data, "seed", 0, "", problems, integer=True)
-    tables = data.get("vehicles", [])
-    if not isinstance(tables, list) or not tables:
-        problems.add("vehicles", "at least one [[vehicles]] table is required")
-        tables = []
-    vehicles = [v for i, t in enumerate(tables) if (v := _vehicle(t, i, seed, problems))]
-    seen: dict[Any, str] = {}
-    for v in vehicles:
-        for key, what in ((v.name, "name"), (v.subsystem, "subsystem"),
-                          (v.link if not v.is_pty else None, "link")):
-            if key is None:
-                continue
-            if (what, key) in seen:
-                problems.add(f"vehicles ({v.name}).{what}",
-                             f"{key!r} is also used by {seen[(what, key)]}")
-            seen[(what, key)] = v.name
-    if problems.items:
-        raise ConfigError(problems.items)
-    return SimProfile(tuple(vehicles), source)
+    reader = Reader(source)
+    profile = read_sim_profile(reader, data)
+    reader.raise_problems()
+    assert profile is not None
+    return profile
 
 
 def load_profile(path: str | Path) -> SimProfile:
     """Read and check a simulation profile file."""
-    path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ConfigError([(str(path), "", f"cannot read: {exc.strerror or exc}")]) from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError([(str(path), "", f"not valid TOML: {exc}")]) from None
-    return parse_profile(data, str(path))
+    return parse_profile(read_toml(path), str(path))

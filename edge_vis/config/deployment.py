@@ -1,0 +1,289 @@
+"""The deployment profile's schema: one relay's settings as frozen dataclasses. No I/O.
+
+A *deployment profile* describes one relay: its JAUS address and authority, its radio
+links, the DDS domain, which translators run, the discovery/liveness/command timing, the
+report rates and the vehicles it knows in advance. These dataclasses are its schema: the
+validation kit (:mod:`edge_vis.schema`) reads the TOML file against them, so each
+setting's type, default, range and TOML key is written here once. The file layout::
+
+    [relay]          jaus_id, authority, name           -> RelayProfile
+    [links.NAME]     url, bandwidth, options, profile   -> LinkProfile (+ LinkSpec keys)
+    [dds]            domain, partitions                 -> DdsProfile
+    [translators]    enabled, disabled, [translators.NAME] tables -> TranslatorSelection
+    [discovery] [control] [events] [commands] [limits] [bulk]
+    [report_rates]   Report = Hz or {desired, minimum, priority} (edge_vis.config.rates)
+    [[vehicles]]     inline tables or {file = "..."} (edge_vis.config.vehicles)
+    [[operators]]    id, max_authority; [access] any_operator  -> OperatorPolicy
+    [catalogue]      jsidl = [files]
+
+Reading the file and the files it references is :mod:`edge_vis.config.loader`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+from urllib.parse import parse_qsl, urlencode, urlsplit
+
+from edge_vis.bandwidth.linkspec import LinkSpec
+from edge_vis.config.operators import OperatorPolicy
+from edge_vis.config.rates import DEFAULT_MINIMUM_SHARE, DEFAULT_REPORT_PRIORITY
+from edge_vis.config.vehicles import VehicleProfile
+from edge_vis.jaus.address import JausAddress
+from edge_vis.schema import setting
+
+
+def _not_broadcast(address: JausAddress) -> str | None:
+    return f"{address} is a broadcast address" if address.is_broadcast else None
+
+
+def _host_port(value: str) -> str | None:
+    host, _, port = value.rpartition(":")
+    if host and port.isdigit() and int(port) < 65536:
+        return None
+    return f"{value!r} is not HOST:PORT"
+
+
+def _non_empty(text: str) -> str | None:
+    return None if text else "must not be empty"
+
+
+def _option_text(value: Any) -> str:
+    """A TOML option value as the text a URL query carries."""
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    return str(value)
+
+
+@dataclass(frozen=True, slots=True)
+class LinkProfile:
+    """A radio or wired link ``[links.NAME]``. ``bandwidth`` in bit/s, 0 = unknown/unlimited.
+
+    ``options`` are query options of the link plugin given as a table instead of in the
+    URL. ``spec`` describes the medium (``profile = "serial-9600"`` naming a file of
+    ``profiles/links/``, and/or the same keys inline): the rate planner and the link
+    scheduler work from it. Without it only ``bandwidth`` paces the link.
+    """
+
+    name: str = setting(toml=False)
+    url: str = setting(doc="the link's URL, e.g. udp://0.0.0.0:3794")
+    bandwidth: int = setting(0, ge=0, unit="bit/s")
+    options: Mapping[str, str | int | float | bool] = setting(factory=dict)
+    spec: LinkSpec | None = setting(None, toml=False)
+    #: the link profile (file) ``spec`` starts from, by name or path
+    profile: str = ""
+
+    @property
+    def scheme(self) -> str:
+        """The URL scheme, which is also the link plugin's entry-point name."""
+        return urlsplit(self.url).scheme
+
+    @property
+    def link_url(self) -> str:
+        """The URL the link is opened with: ``url`` with ``options`` and ``bandwidth``
+        added to its query (what the URL itself says is kept)."""
+        query = dict(parse_qsl(urlsplit(self.url).query, keep_blank_values=True))
+        extra = {k: _option_text(v) for k, v in self.options.items() if k not in query}
+        if self.bandwidth and "bandwidth" not in query and "bandwidth" not in extra:
+            extra["bandwidth"] = str(self.bandwidth)
+        if not extra:
+            return self.url
+        separator = "&" if "?" in self.url else "?"
+        return f"{self.url}{separator}{urlencode(extra)}"
+
+
+@dataclass(frozen=True, slots=True)
+class DiscoveryProfile:
+    """Discovery and liveness timing, in seconds.
+
+    A vehicle is declared lost after ``lost_after`` liveness periods without any message.
+    """
+
+    period: float = setting(5.0, gt=0, unit="s")
+    liveness_period: float = setting(1.0, gt=0, unit="s")
+    lost_after: float = setting(3.0, gt=0)
+    response_timeout: float = setting(3.0, gt=0, unit="s")
+
+    @property
+    def silence_timeout(self) -> float:
+        """Seconds of silence after which a vehicle is declared lost."""
+        return self.liveness_period * self.lost_after
+
+
+@dataclass(frozen=True, slots=True)
+class ControlProfile:
+    """Access control and management timing.
+
+    ``renewal_period`` is used when a component does not report its control timeout
+    (the JTS example never answers QueryTimeout). ``max_ready_attempts`` bounds how long
+    a component that never leaves INITIALIZE can hold up commanding.
+    """
+
+    renewal_period: float = setting(2.0, gt=0, unit="s")
+    response_timeout: float = setting(2.0, gt=0, unit="s")
+    retry_period: float = setting(5.0, gt=0, unit="s")
+    max_ready_attempts: int = setting(3, ge=0)
+
+
+@dataclass(frozen=True, slots=True)
+class EventsProfile:
+    """JAUS event subscription timing.
+
+    After ``attempts`` unanswered CreateEvent requests (``response_timeout`` s each), the
+    report is polled instead. ``default_refresh`` is the renewal period when the provider
+    does not report its event timeout.
+    """
+
+    response_timeout: float = setting(3.0, gt=0, unit="s")
+    attempts: int = setting(2, ge=0)
+    default_refresh: float = setting(60.0, gt=0, unit="s")
+
+
+@dataclass(frozen=True, slots=True)
+class CommandProfile:
+    """Command throttling: max rate (Hz) per vehicle and kind, lifespan and dead-man (s)."""
+
+    rate: float = setting(10.0, gt=0, unit="Hz")
+    lifespan: float = setting(0.5, gt=0, unit="s")
+    deadman_timeout: float = setting(1.0, gt=0, unit="s")
+
+
+@dataclass(frozen=True, slots=True)
+class DdsProfile:
+    """The DDS domain and partitions the relay publishes in."""
+
+    domain: int = setting(0, ge=0, le=232)
+    partitions: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class LimitsProfile:
+    """Bounds on tables that grow with what the network sends (``[limits]``).
+
+    Past a bound the newest entry is refused (vehicles, probes) or the oldest forgotten
+    (routes), and a counter says so; nothing already accepted is lost.
+    """
+
+    max_vehicles: int = setting(256, ge=1)
+    max_routes: int = setting(4096, ge=1)
+    max_duplicates: int = setting(65536, ge=1)
+    max_unidentified: int = setting(1024, ge=1)
+    max_products: int = setting(256, ge=1)
+
+
+@dataclass(frozen=True, slots=True)
+class TranslatorSelection:
+    """Which translators run. ``enabled`` of ``("*",)`` means every installed one.
+
+    ``options`` are the sub-tables of ``[translators]`` by translator name (e.g.
+    ``[[translators.generic.mappings]]``); each translator validates its own table
+    against the options dataclass it declares.
+    """
+
+    enabled: tuple[str, ...] = ("*",)
+    disabled: tuple[str, ...] = ()
+    options: Mapping[str, Mapping[str, Any]] = setting(factory=dict, rest=True)
+
+    def selects(self, name: str) -> bool:
+        """True when translator ``name`` should run."""
+        if name in self.disabled:
+            return False
+        return "*" in self.enabled or name in self.enabled
+
+
+@dataclass(frozen=True, slots=True)
+class BulkProfile:
+    """``[bulk]``: the relay receives ATR images over UDT, spools and verifies them,
+    publishes them on DDS and forwards them to downstream receivers."""
+
+    listen: str = setting(check=_host_port, doc="HOST:PORT to receive on")
+    directory: Path = setting(key="dir", doc="where images go")
+    spool: Path | None = None
+    forward: tuple[str, ...] = setting((), check=_host_port)
+    #: bytes of spool (None: no quota; 0 in the file means none too)
+    quota_bytes: int | None = setting(None, key="quota", ge=0, convert=lambda v: v or None)
+    #: bit/s for forwarding (None: unlimited; 0 in the file means unlimited too)
+    max_rate_bps: int | None = setting(None, key="max_rate", ge=0,
+                                       convert=lambda v: v or None)
+    forward_lanes: int = setting(1, ge=1, le=16)
+    keys: Path | None = None
+    publish_data: bool = True
+
+
+@dataclass(frozen=True, slots=True)
+class OperatorEntry:
+    """One ``[[operators]]`` entry: an operator station allowed to request control."""
+
+    id: str = setting(doc="every operator needs an id", check=_non_empty)
+    max_authority: int = setting(255, ge=0, le=255)
+
+
+@dataclass(frozen=True, slots=True)
+class AccessProfile:
+    """``[access]``: ``any_operator`` admits operators the profile does not list.
+
+    Not given, it is true only for a profile that lists no operator and is built in code
+    (a profile file fails closed; see :mod:`edge_vis.config.operators`).
+    """
+
+    any_operator: bool | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class RelayProfile:
+    """A whole deployment profile."""
+
+    jaus_id: JausAddress = setting(JausAddress(200, 1, 1), key="relay.jaus_id",
+                                   check=_not_broadcast)
+    authority: int = setting(100, key="relay.authority", ge=0, le=255)
+    name: str = setting("edge-vis", key="relay.name")
+    links: tuple[LinkProfile, ...] = setting((), custom=True)
+    dds: DdsProfile = field(default_factory=DdsProfile)
+    translators: TranslatorSelection = field(default_factory=TranslatorSelection)
+    discovery: DiscoveryProfile = field(default_factory=DiscoveryProfile)
+    control: ControlProfile = field(default_factory=ControlProfile)
+    events: EventsProfile = field(default_factory=EventsProfile)
+    commands: CommandProfile = field(default_factory=CommandProfile)
+    report_rates: Mapping[str, float] = setting(factory=dict, custom=True)
+    vehicles: tuple[VehicleProfile, ...] = setting((), custom=True)
+    jsidl: tuple[Path, ...] = setting((), key="catalogue.jsidl")
+    source: str = setting("", toml=False)
+    report_minimums: Mapping[str, float] = setting(factory=dict, key="report_rates",
+                                                   custom=True)
+    report_priorities: Mapping[str, int] = setting(factory=dict, key="report_rates",
+                                                   custom=True)
+    #: who may request control (:mod:`edge_vis.config.operators`); a profile file that lists no
+    #: ``[[operators]]`` refuses everyone unless ``access.any_operator = true``
+    operators: OperatorPolicy = setting(factory=OperatorPolicy.open, custom=True)
+    limits: LimitsProfile = field(default_factory=LimitsProfile)
+    bulk: BulkProfile | None = None
+
+    def vehicle_by_subsystem(self, subsystem: int) -> VehicleProfile | None:
+        """The vehicle profile claiming JAUS ``subsystem``, if any."""
+        for vehicle in self.vehicles:
+            if vehicle.subsystem == subsystem:
+                return vehicle
+        return None
+
+    def report_rate(self, report: str, default: float, vehicle: VehicleProfile | None) -> float:
+        """Rate in Hz for ``report``: vehicle override, then deployment, then ``default``."""
+        if vehicle is not None and report in vehicle.report_rates:
+            return vehicle.report_rates[report]
+        return self.report_rates.get(report, default)
+
+    def report_minimum(self, report: str, desired: float,
+                       vehicle: VehicleProfile | None) -> float:
+        """Minimum useful rate of ``report`` (default: a tenth of ``desired``)."""
+        if vehicle is not None and report in vehicle.report_minimums:
+            value = vehicle.report_minimums[report]
+        else:
+            value = self.report_minimums.get(report, desired * DEFAULT_MINIMUM_SHARE)
+        return min(value, desired)
+
+    def report_priority(self, report: str, vehicle: VehicleProfile | None) -> int:
+        """Planning priority of ``report``: higher is degraded later (default 5)."""
+        if vehicle is not None and report in vehicle.report_priorities:
+            return vehicle.report_priorities[report]
+        return self.report_priorities.get(report, DEFAULT_REPORT_PRIORITY)

@@ -1,0 +1,132 @@
+"""Vehicle profiles: what is known about a vehicle in advance. No I/O.
+
+A vehicle profile is a table inline in a deployment's ``[[vehicles]]``, or a file of its
+own (``profiles/vehicles/*.toml``) that a deployment references with ``file =``::
+
+    vehicle_id = "ugv-static"          # required: the vehicle's id on DDS
+    subsystem = 150                    # ties a discovered JAUS subsystem to this id
+    name = "Static UGV"
+    vehicle_type = "UGV"
+    link = "radio"                     # a [links.NAME] of the deployment
+    address = "150.1.1"                # a robot that does not answer discovery: its
+    services = ["urn:jaus:jss:core:Management"]   # component and services, or
+    [[components]]                     # several components
+    address = "150.1.2"
+    services = [{ uri = "urn:jaus:jss:mobility:PrimitiveDriver", version = "1.0" }]
+    [report_rates]
+    ReportGlobalPose = 1.0
+
+:func:`read_vehicle` builds a :class:`VehicleProfile` from such a table with the
+validation kit (:mod:`edge_vis.schema`); what needs the deployment (link names, duplicate
+ids) is checked by the deployment loader.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, replace
+from typing import Any, ClassVar
+
+from edge_vis.config.rates import REPORT_RATES, split_rates
+from edge_vis.jaus.address import JausAddress
+from edge_vis.schema import Reader, setting
+
+
+def _urn(uri: str) -> str | None:
+    return None if uri.startswith("urn:") else f"service URI {uri!r} does not start with 'urn:'"
+
+
+def _non_empty(text: str) -> str | None:
+    return None if text else "must not be empty"
+
+
+@dataclass(frozen=True, slots=True)
+class ServiceProfile:
+    """A service a component offers: URI and ``major.minor`` version; a bare string is
+    the URI."""
+
+    toml_shorthand: ClassVar[str] = "uri"
+
+    uri: str = setting(check=_urn, doc="the service URI (urn:...)")
+    version: str = setting("1.0", read_as=str | float, convert=str)
+
+
+@dataclass(frozen=True, slots=True)
+class ComponentProfile:
+    """A component of a statically described vehicle."""
+
+    address: JausAddress = setting(doc="the component's JAUS address S.N.C")
+    services: tuple[ServiceProfile, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class VehicleProfile:
+    """What is known about a vehicle in advance.
+
+    ``subsystem`` ties a discovered JAUS subsystem to this ``vehicle_id``. With
+    ``components`` the vehicle is *static*: it is declared at start-up with those
+    services, and standard discovery (identification, services) is not needed for it.
+    ``report_rates`` (Hz, by report message name) override the deployment's rates.
+    """
+
+    vehicle_id: str = setting(check=_non_empty, doc="every vehicle needs a vehicle_id")
+    subsystem: int | None = setting(None, ge=1, le=65534)
+    name: str = ""
+    vehicle_type: str = ""
+    link: str = ""
+    components: tuple[ComponentProfile, ...] = ()
+    report_rates: Mapping[str, float] = setting(factory=dict, custom=True)
+    source: str = setting("", toml=False)
+    #: minimum useful rate (Hz) and planning priority (higher = kept longer) by report
+    report_minimums: Mapping[str, float] = setting(factory=dict, key="report_rates",
+                                                   custom=True)
+    report_priorities: Mapping[str, int] = setting(factory=dict, key="report_rates",
+                                                   custom=True)
+
+    @property
+    def is_static(self) -> bool:
+        """True when the profile lists the vehicle's components and services."""
+        return bool(self.components)
+
+    def validate(self) -> Iterator[tuple[str, str]]:
+        """Every component must belong to the vehicle's subsystem."""
+        for i, component in enumerate(self.components):
+            if self.subsystem is not None and component.address.subsystem != self.subsystem:
+                yield (f"components[{i}].address", f"subsystem {component.address.subsystem} "
+                                                   f"differs from the vehicle's {self.subsystem}")
+
+
+def read_vehicle(reader: Reader, table: Any, path: str = "") -> VehicleProfile | None:
+    """A vehicle profile table (inline or a whole file) -> :class:`VehicleProfile`.
+
+    ``address`` and ``services`` are the short form of one component; the subsystem, when
+    not given, is the components'.
+    """
+    vehicle = reader.read(VehicleProfile, table, path, values={"source": reader.file},
+                          handled=("address", "services"))
+    if vehicle is None:
+        return None
+    at = f"{path}." if path else ""
+    address = reader.take(table, "address", JausAddress, path)
+    services = reader.take(table, "services", tuple[ServiceProfile, ...], path, ())
+    rates = reader.take(table, "report_rates", REPORT_RATES, path, {})
+    components = vehicle.components
+    if address is not None:
+        if vehicle.subsystem is not None and address.subsystem != vehicle.subsystem:
+            reader.problem(f"{at}address", f"subsystem {address.subsystem} differs from "
+                                           f"subsystem = {vehicle.subsystem}")
+        if services:
+            components = (ComponentProfile(address, services), *components)
+    elif services:
+        reader.problem(f"{at}services", "static services need an 'address'")
+    subsystem = vehicle.subsystem
+    if subsystem is None and (address is not None or components):
+        subsystem = address.subsystem if address is not None else components[0].address.subsystem
+        for i, component in enumerate(vehicle.components):
+            if component.address.subsystem != subsystem:
+                reader.problem(f"{at}components[{i}].address",
+                               f"subsystem {component.address.subsystem} differs from the "
+                               f"vehicle's {subsystem}")
+    desired, minimums, priorities = split_rates(rates)
+    return replace(vehicle, subsystem=subsystem, components=components, report_rates=desired,
+                   report_minimums=minimums, report_priorities=priorities)
