@@ -32,7 +32,7 @@ from functools import cache
 from typing import Any
 
 from edge_vis import plugins
-from edge_vis.codec.engine import MessageCodec, compile_message
+from edge_vis.codec.bodies import MessageCodec, compile_message
 from edge_vis.codec.layout import check_message, wire_signature
 from edge_vis.codec.types import Enum, Int, JausMessage, MessageDef, Record
 from edge_vis.errors import (
