@@ -425,7 +425,7 @@ class Runtime:
         """One log line with :meth:`totals` as a JSON object (drop reasons hold commas)."""
         tallies = self.tallies()
         log.info("totals: %s", json.dumps(totals(tallies)))
-        log.info("lost: %s", json.dumps(losses(tallies)))
+        log.info("losses: %s", json.dumps(losses(tallies)))
 
     def _rearm(self, now: float) -> None:
         assert self._loop is not None
