@@ -201,7 +201,7 @@ class Router:
         self._pending: dict[tuple[int, int], _Pending] = {}
         self._next_sweep: float | None = None
         self._reassembler = (
-            Reassembler(timeout=self.config.reassembly_timeout) if Reassembler else None
+            Reassembler(timeout=self.config.reassembly_timeout) if Reassembler is not None else None
         )
         self.counters: Counter[str] = Counter()
 
