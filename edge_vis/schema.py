@@ -181,7 +181,7 @@ class Reader:
 
     # -- tables ----------------------------------------------------------------------------
 
-    def read(self, cls: type[T], data: Any, path: str = "", *, base: T | None = None,
+    def read(self, cls: type[T], data: Any, path: str = "", *, base: Any = None,
              values: Mapping[str, Any] | None = None, handled: Iterable[str] = ()) -> T | None:
         """Build ``cls`` from table ``data`` found at key ``path``; None if impossible.
 
@@ -194,14 +194,15 @@ class Reader:
         if not isinstance(data, Mapping):
             self.problem(path, f"expected {_table_name(cls)}")
             return None
-        hints = _hints(cls)
+        schema: Any = cls  # a dataclass (type variables cannot say so)
+        hints = _hints(schema)
         kwargs: dict[str, Any] = dict(values or {})
         known: dict[str, set[str]] = {"": set(handled)}
         bad_sections: set[str] = set()
         failed = False
         invalid: list[str] = []
         rest: list[dataclasses.Field[Any]] = []
-        for f in dataclasses.fields(cls):
+        for f in dataclasses.fields(schema):
             s = setting_of(f)
             if not s.toml:
                 continue
@@ -241,7 +242,7 @@ class Reader:
         self._unknown(data, known, path, bad_sections)
         if failed:
             return None
-        obj: T = dataclasses.replace(base, **kwargs) if base is not None else cls(**kwargs)
+        obj: T = dataclasses.replace(base, **kwargs) if base is not None else schema(**kwargs)
         for key, reason in getattr(obj, "validate", _no_checks)():
             if not any(_related(key, bad) for bad in invalid):  # said already
                 self.problem(_join(path, key), reason)
@@ -414,8 +415,8 @@ class Reader:
         if choices is not None and value not in choices:
             self.problem(path, f"{value!r} is not one of {', '.join(map(str, choices))}")
             return _INVALID
-        if spec.check is not None and (reason := spec.check(value)):
-            self.problem(path, reason)
+        if spec.check is not None and (refused := spec.check(value)):
+            self.problem(path, refused)
             return _INVALID
         return value
 

@@ -135,8 +135,8 @@ def _links(reader: Reader, table: Any) -> list[LinkProfile]:
             continue
         own = {k: v for k, v in item.items() if k not in SPEC_KEYS}
         link = reader.read(LinkProfile, own, path, values={"name": name})
-        profile = item.get("profile") if isinstance(item.get("profile"), str) else ""
-        spec = _link_spec(reader, item, profile, path)
+        named = item.get("profile")
+        spec = _link_spec(reader, item, named if isinstance(named, str) else "", path)
         if link is None:
             continue
         link = replace(link, spec=spec)

@@ -34,6 +34,7 @@ from edge_vis.kit.actions import (
 from edge_vis.kit.contract import (
     STATUS_NAMES,
     ReportSpec,
+    TopicDecl,
     Translator,
     TranslatorContext,
     VehicleView,
@@ -71,7 +72,7 @@ __all__ = [
     "NAN", "STATUS_NAMES", "Action", "Build", "Command", "CommandRule", "Computed",
     "ConfigError", "Const", "DeclareVehicle", "Each", "From", "JausAddress", "Publish", "Put",
     "PutEach", "ReportRule", "ReportSpec", "RuleTranslator", "SendMessage", "ShutdownComplete",
-    "Spec", "Translator", "TranslatorContext", "VehicleView", "clamp", "code_of",
+    "Spec", "TopicDecl", "Translator", "TranslatorContext", "VehicleView", "clamp", "code_of",
     "declarations", "derive_vehicle_id", "describe_rules", "extract", "flags", "get_path",
     "label", "number", "path_problem", "put", "read_table", "set_path", "setting",
 ]

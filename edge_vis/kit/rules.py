@@ -221,17 +221,17 @@ def _path_problem(node: Any, steps: list[str], done: list[str]) -> str:
         for member in node.fields:
             if member.name == step:
                 return _path_problem(member.type, rest, [*done, step])
-        names = ", ".join(f.name for f in node.fields) or "none"
-        return f"no field {step!r} in {here} (fields: {names})"
+        listed = ", ".join(f.name for f in node.fields) or "none"
+        return f"no field {step!r} in {here} (fields: {listed})"
     if isinstance(node, Variant):
-        names = [a.name for a in node.alternatives]
+        alternatives = ", ".join(a.name for a in node.alternatives)
         if step == "*":
             found = [_path_problem(a.type, rest, [*done, step]) for a in node.alternatives]
             return "" if "" in found or not found else found[0]
         for alternative in node.alternatives:
             if alternative.name == step:
                 return _path_problem(alternative.type, rest, [*done, step])
-        return f"no alternative {step!r} in {here} (alternatives: {', '.join(names)}, or *)"
+        return f"no alternative {step!r} in {here} (alternatives: {alternatives}, or *)"
     if isinstance(node, BitField | VarFormat):
         names = [sub.name for sub in node.subfields] if isinstance(node, BitField) \
             else ["format", "data"]
@@ -395,8 +395,8 @@ class RuleTranslator(Translator):
         for rule in self.report_rules:
             self._by_message.setdefault(rule.message, []).append(rule)
         self._by_topic: dict[str, list[CommandRule]] = {}
-        for rule in self.command_rules:
-            self._by_topic.setdefault(rule.topic, []).append(rule)
+        for command in self.command_rules:
+            self._by_topic.setdefault(command.topic, []).append(command)
 
     # -- JAUS -> DDS -----------------------------------------------------------------------
 

@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 from urllib.parse import parse_qsl, urlsplit
 
-from edge_vis.errors import ConfigError, PluginLoadError, PluginNotFoundError
+from edge_vis.errors import ConfigError, PluginNotFoundError
 from edge_vis.jaus.transport import JTS_MAX_PAYLOAD, Packet
 from edge_vis.schema import Reader, setting
 
@@ -406,14 +406,15 @@ def link_class(scheme: str) -> type[Link]:
 
     installed = sorted(plugins.available(plugins.LINKS))
     if scheme not in installed:
+        if scheme in plugins.available(plugins.BULK):
+            raise PluginNotFoundError(
+                f"{scheme}:// is a bulk channel for image files, not a JAUS link: give it in "
+                f"the profile's [bulk] table (or use send-image / receive-images), not as a "
+                f"link")
         raise PluginNotFoundError(f"unknown link scheme {scheme!r} (installed: "
                                   f"{', '.join(installed) or 'none'})")
-    found = plugins.load(plugins.LINKS, scheme)
-    if not (isinstance(found, type) and issubclass(found, Link)):
-        kind = getattr(found, "kind", "")
-        what = f"the {kind} channel" if kind else f"a {type(found).__name__}"
-        raise PluginLoadError(f"link scheme {scheme!r} is {what}, not a packet link")
-    return found
+    cls: type[Link] = plugins.load(plugins.LINKS, scheme, Link)
+    return cls
 
 
 def check_link_url(url: str) -> LinkOptions:

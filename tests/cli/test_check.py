@@ -41,7 +41,7 @@ def problem_lines(out: str) -> list[str]:
 
 @pytest.mark.parametrize(("url", "key", "reason"), [
     ("udpp://0.0.0.0:3794", "links.radio.url",
-     "unknown link scheme 'udpp' (installed: loop, serial, udp, udt)"),
+     "unknown link scheme 'udpp' (installed: loop, serial, udp)"),
     ("udp://127.0.0.1:3794?bogus=1", "links.radio.url.bogus",
      "udp://127.0.0.1:3794?bogus=1: unknown option (known: bandwidth, broadcast, interface, "
      "loop, mtu, multicast, name, pack, peers, ttl)"),
@@ -57,7 +57,8 @@ def problem_lines(out: str) -> list[str]:
     ("serial://?baud=9600", "links.radio.url",
      "serial://?baud=9600: no device path (serial:///dev/...)"),
     ("udt://0.0.0.0:9000", "links.radio.url",
-     "link scheme 'udt' is the bulk channel, not a packet link"),
+     "udt:// is a bulk channel for image files, not a JAUS link: give it in the profile's "
+     "[bulk] table"),
     ("no-scheme", "links.radio.url",
      "'no-scheme' is not a link URL: no scheme (e.g. udp://0.0.0.0:3794)"),
 ])
@@ -67,7 +68,8 @@ def test_bad_links_are_refused_as_run_would(tmp_path: Path, capsys: pytest.Captu
     status, out = check(path, capsys)
     assert status == 2
     assert f"{path}: deployment profile: 1 problem(s)" in out
-    assert problem_lines(out) == [f"{path}: {key}: {reason}"]
+    (line,) = problem_lines(out)
+    assert line.startswith(f"{path}: {key}: {reason}"), line
     # run opens links with create_link: the same plugin and the same refusal
     with pytest.raises(EdgeVisError) as info:
         create_link(url)
