@@ -21,7 +21,7 @@ from typing import Any
 
 from edge_vis.bandwidth.linkspec import read_link_profile
 from edge_vis.catalogue.jsidl import profile_catalogue
-from edge_vis.config import default_profile_path, read_deployment, read_toml
+from edge_vis.config import default_profile_path, read_profile_file, read_toml
 from edge_vis.config.kinds import (
     DEPLOYMENT,
     KINDS,
@@ -89,7 +89,7 @@ def _checked(path: Path, read: Callable[[Reader, Mapping[str, Any]], Any],
 
 def check_deployment(path: Path, data: Mapping[str, Any]) -> str:
     """What ``edge-vis run`` checks before it opens anything (links: by their plugins)."""
-    profile = _checked(path, read_deployment, data)
+    profile = _checked(path, read_profile_file, data)
     manager = TranslationManager.from_selection(profile.translators)
     try:
         catalogue = profile_catalogue(profile.jsidl)

@@ -38,6 +38,7 @@ from edge_vis.config.loader import (
     load_profile,
     load_vehicle_profile,
     read_deployment,
+    read_profile_file,
     read_toml,
 )
 from edge_vis.config.operators import OperatorPolicy
@@ -50,5 +51,5 @@ __all__ = [
     "EventsProfile", "LimitsProfile", "LinkProfile", "OperatorEntry", "OperatorPolicy",
     "RelayProfile", "ReportRate", "ServiceProfile", "TranslatorSelection", "VehicleProfile",
     "default_profile_path", "from_mapping", "link_problems", "load_default_profile",
-    "load_profile", "load_vehicle_profile", "read_deployment", "read_toml",
+    "load_profile", "load_vehicle_profile", "read_deployment", "read_profile_file", "read_toml",
 ]

@@ -31,8 +31,19 @@ from edge_vis.bandwidth.linkspec import LinkSpec
 from edge_vis.config.operators import OperatorPolicy
 from edge_vis.config.rates import DEFAULT_MINIMUM_SHARE, DEFAULT_REPORT_PRIORITY
 from edge_vis.config.vehicles import VehicleProfile
+from edge_vis.errors import ConfigError
 from edge_vis.jaus.address import JausAddress
+from edge_vis.routing.link import LinkUrl
 from edge_vis.schema import setting
+
+
+def _link_url(url: str) -> str | None:
+    """The URL's form only: what the plugin of its scheme says is the loader's to ask."""
+    try:
+        LinkUrl.parse(url)
+    except ConfigError as exc:
+        return exc.problems[0][2]
+    return None
 
 
 def _not_broadcast(address: JausAddress) -> str | None:
@@ -68,7 +79,7 @@ class LinkProfile:
     """
 
     name: str = setting(toml=False)
-    url: str = setting(doc="the link's URL, e.g. udp://0.0.0.0:3794")
+    url: str = setting(check=_link_url, doc="the link's URL, e.g. udp://0.0.0.0:3794")
     bandwidth: int = setting(0, ge=0, unit="bit/s")
     options: Mapping[str, str | int | float | bool] = setting(factory=dict)
     spec: LinkSpec | None = setting(None, toml=False)

@@ -3,9 +3,11 @@
 :func:`load_profile` reads a deployment profile and :func:`from_mapping` validates one
 already parsed; both read the files it references (vehicle profiles given with
 ``file =``, link profiles named by ``profile =``) and check that ``catalogue.jsidl`` and
-``bulk.keys`` files exist. Link URLs are validated by their link plugin exactly as
-``edge-vis run`` opens them (:func:`edge_vis.routing.link.check_link_url`), without
-opening anything. :func:`load_vehicle_profile` reads a vehicle profile on its own.
+``bulk.keys`` files exist. A profile file (:func:`load_profile`, what ``edge-vis run`` and
+``edge-vis check`` read) also has every link URL validated by its link plugin exactly as
+the relay opens it (:func:`edge_vis.routing.link.check_link_url`), without opening
+anything; :func:`from_mapping` checks a URL's form only and imports no plugin.
+:func:`load_vehicle_profile` reads a vehicle profile on its own.
 
 Validation collects every problem before raising one :class:`~edge_vis.errors.ConfigError`
 whose ``problems`` are ``(file, key path, message)`` triples, e.g.
@@ -49,10 +51,25 @@ def read_toml(path: str | Path) -> dict[str, Any]:
 
 
 def load_profile(path: str | Path) -> RelayProfile:
-    """Read and validate the deployment profile at ``path``."""
+    """Read and validate the deployment profile at ``path``, its links by their plugins."""
     path = Path(path)
-    return from_mapping(read_toml(path), file=str(path), base_dir=path.parent,
-                        any_operator_default=False)
+    reader = Reader(str(path), base_dir=path.parent)
+    profile = read_profile_file(reader, read_toml(path))
+    reader.raise_problems()
+    assert profile is not None
+    return profile
+
+
+def read_profile_file(reader: Reader, data: Mapping[str, Any]) -> RelayProfile | None:
+    """What :func:`load_profile` checks in a parsed deployment profile file (and so what
+    ``edge-vis check`` does): the schema, the files it references, and every link by the
+    plugin that would open it. Problems are left in ``reader``."""
+    profile = read_deployment(reader, data, any_operator_default=False)
+    if profile is not None:
+        for link in profile.links:
+            for key, reason in link_problems(link):
+                reader.problem(f"links.{link.name}.{key}", reason)
+    return profile
 
 
 def from_mapping(data: Mapping[str, Any], *, file: str = "",
@@ -139,10 +156,7 @@ def _links(reader: Reader, table: Any) -> list[LinkProfile]:
         spec = _link_spec(reader, item, named if isinstance(named, str) else "", path)
         if link is None:
             continue
-        link = replace(link, spec=spec)
-        for key, reason in link_problems(link):
-            reader.problem(f"{path}.{key}", reason)
-        links.append(link)
+        links.append(replace(link, spec=spec))
     return links
 
 
