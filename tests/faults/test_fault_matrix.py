@@ -16,9 +16,9 @@ import time
 from collections.abc import Awaitable, Callable
 
 import pytest
-from edge_vis.tools.sim.profile import FaultSpec
 
 from edge_vis.shell.relay import losses
+from edge_vis.tools.sim.profile import FaultSpec
 
 from .conftest import FaultResult
 from .harness import Rig, until
