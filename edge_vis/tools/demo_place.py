@@ -294,15 +294,15 @@ def move_url(url: str, placement: Placement, paths: Mapping[str, str]) -> str:
     """A link URL of a relay profile moved to ``placement`` (UDP addresses, serial paths)."""
     parts = urlsplit(url)
     if parts.scheme == "serial":  # urlunsplit would drop the empty host: serial:/dev/...
-        query = f"?{parts.query}" if parts.query else ""
-        return f"serial://{parts.netloc}{paths.get(parts.path, parts.path)}{query}"
+        tail = f"?{parts.query}" if parts.query else ""
+        return f"serial://{parts.netloc}{paths.get(parts.path, parts.path)}{tail}"
     if parts.scheme != "udp":
         return url
     bind = _host_port(url)
     netloc = parts.netloc
     if bind is not None:
         netloc = "{}:{}".format(*placement.address(*bind))
-    query = []
+    options: list[tuple[str, str]] = []
     for key, value in parse_qsl(parts.query, keep_blank_values=True):
         if key == "peers":
             peers = []
@@ -310,10 +310,14 @@ def move_url(url: str, placement: Placement, paths: Mapping[str, str]) -> str:
                 host, sep, port = item.rpartition(":")
                 if not sep:
                     host, port = item, str(JUDP_PORT)
+                if not port.isdigit():  # not ours to judge: the relay reports it
+                    peers.append(item)
+                    continue
                 peers.append("{}:{}".format(*placement.address(host, int(port))))
             value = ",".join(peers)
-        query.append((key, value))
-    return urlunsplit(parts._replace(netloc=netloc, query=urlencode(query, safe=",:/")))
+        options.append((key, value))
+    return urlunsplit((parts.scheme, netloc, parts.path, urlencode(options, safe=",:/"),
+                       parts.fragment))
 
 
 def move_relay(data: Mapping[str, Any], placement: Placement, paths: Mapping[str, str]
