@@ -112,14 +112,33 @@ def test_load_imports_lazily_and_returns_the_target(fake_links: Path) -> None:
     assert sys.modules["fakeplug_links"].IMPORTED is True
 
 
-def test_missing_name_lists_what_exists_and_how_to_fix(fake_links: Path) -> None:
+def test_missing_name_lists_what_exists_without_a_reinstall_hint(fake_links: Path) -> None:
     with pytest.raises(PluginNotFoundError) as info:
         plugins.load(plugins.LINKS, "carrier-pigeon")
     message = str(info.value)
-    assert "'carrier-pigeon'" in message
+    assert "link scheme 'carrier-pigeon'" in message
     assert "edge_vis.links" in message
     assert "fakeudp" in message and "fakebroken" in message
-    assert "pip install -e ." in message
+    # the scheme simply does not exist: reinstalling edge-vis would not help
+    assert "pip install" not in message and "did you mean" not in message
+
+
+@pytest.mark.parametrize(("typo", "meant"), [
+    ("udpp", "'udp'"), ("upd", "'udp'"), ("seral", "'serial'"), ("Serail", "'serial'"),
+    ("udq", "'udp'"),
+])
+def test_a_mistyped_link_scheme_names_the_likely_one(typo: str, meant: str) -> None:
+    with pytest.raises(PluginNotFoundError) as info:
+        plugins.load(plugins.LINKS, typo)
+    message = str(info.value)
+    assert f"did you mean {meant}?" in message
+    assert "installed: " in message and "serial" in message and "pip install" not in message
+
+
+def test_a_different_scheme_is_not_taken_for_a_typo() -> None:
+    with pytest.raises(PluginNotFoundError) as info:
+        plugins.load(plugins.LINKS, "tcp")
+    assert "did you mean" not in str(info.value)
 
 
 def test_missing_name_in_empty_group_says_none(monkeypatch: pytest.MonkeyPatch) -> None:
