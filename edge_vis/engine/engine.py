@@ -47,6 +47,8 @@ from edge_vis.engine.control import ComponentControl, ControlState, Outgoing
 from edge_vis.engine.discovery import (
     CORE,
     IDENTIFICATION_TYPES,
+    Component,
+    Query,
     components_from_configuration,
     pick,
     services_from_report,
@@ -461,6 +463,7 @@ class Engine:
         for address, services in components.items():
             vehicle.set_services(address, list(services))
         vehicle.services_known = True
+        vehicle.discovery.stop()
         vehicle.next_services_query = None
         if (vehicle.name, vehicle.vehicle_type, vehicle.address, vehicle.components) != before:
             self._changed(vehicle, "identified", now)
@@ -508,11 +511,15 @@ class Engine:
             kind = IDENTIFICATION_TYPES.get(int(fields.get("type", 0) or 0), "")
             if kind and not (vehicle.profile is not None and vehicle.profile.vehicle_type):
                 vehicle.vehicle_type = kind
+        elif ident and not vehicle.name:  # a node or component name beats none
+            vehicle.name = ident
+            changed = True
+        vehicle.discovery.on_identification(ident, self.counters)
         if vehicle.address is None:
             vehicle.address = source
             changed = True
         if not vehicle.services_known and vehicle.next_services_query is None:
-            vehicle.next_services_query = now
+            vehicle.next_services_query = vehicle.discovery.start(now)
         if changed:
             self._changed(vehicle, "identified", now)
         return vehicle
@@ -535,24 +542,19 @@ class Engine:
             self._send(source, "QueryIdentification", {"query_type": 2})
 
     def _query_services(self, vehicle: Vehicle, now: float) -> None:
-        target = vehicle.address
-        if target is None:
+        """A discovery round is due (see :class:`~edge_vis.engine.discovery.ServiceDiscovery`)."""
+        if vehicle.address is None:
             vehicle.next_services_query = None
             return
-        vehicle.services_attempts += 1
-        self._send(target, "QueryConfiguration", {"query_type": 2})
-        if vehicle.services_attempts % 2 == 1:
-            nodes: dict[int, list[int]] = {255: [255]}
-        else:  # some implementations answer only explicit IDs
-            nodes = {}
-            for addr in [target, *vehicle.configuration]:
-                nodes.setdefault(addr.node, [])
-                if addr.component not in nodes[addr.node]:
-                    nodes[addr.node].append(addr.component)
-        self._send(target, "QueryServices", query_services_fields(nodes))
-        disc = self.profile.discovery
-        wait = disc.response_timeout if vehicle.services_attempts < 4 else disc.period
-        vehicle.next_services_query = now + wait
+        self._discovery_sends(vehicle, vehicle.discovery.next_round(
+            _component(vehicle.address), now, self.profile.discovery, self.counters))
+
+    def _discovery_sends(self, vehicle: Vehicle, queries: Sequence[Query]) -> None:
+        """Send discovery's queries to the component that identified the vehicle."""
+        if vehicle.address is not None:
+            for name, fields in queries:
+                self._send(vehicle.address, name, fields)
+        vehicle.next_services_query = vehicle.discovery.next_at
 
     # == liveness ===========================================================================
 
@@ -564,6 +566,8 @@ class Engine:
         vehicle.online = True
         if vehicle.times_lost:
             log.info("vehicle %s found again", vehicle.vehicle_id)
+            if not vehicle.services_known and vehicle.next_services_query is None:
+                vehicle.next_services_query = vehicle.discovery.restart(now)
         self._changed(vehicle, "online", now)
         for address, ctl in vehicle.controls.items():
             self._send_outgoing(address, ctl.on_found(now))
@@ -665,20 +669,27 @@ class Engine:
     def _on_services(self, vehicle: Vehicle, source: JausAddress, fields: Mapping[str, Any],
                      now: float) -> None:
         changed = False
-        for (node, comp), services in services_from_report(fields).items():
+        report = services_from_report(fields)
+        for (node, comp), services in report.items():
             address = JausAddress(vehicle.subsystem, node, comp)
             changed |= vehicle.set_services(address, services)
-        first = not vehicle.services_known
-        vehicle.services_known = True
-        vehicle.next_services_query = None
+        if not vehicle.static and vehicle.address is not None:
+            self._discovery_sends(vehicle, vehicle.discovery.on_services(
+                report, _component(vehicle.address), now, self.profile.discovery,
+                self.counters))
+        # an empty answer proves nothing (JAUS++ reads the wildcards literally)
+        first = not vehicle.services_known and (vehicle.static or vehicle.discovery.known)
+        vehicle.services_known = vehicle.services_known or first
         if changed or first:
             self._changed(vehicle, "identified", now)
         self._setup(vehicle, now)
 
     def _on_configuration(self, vehicle: Vehicle, source: JausAddress,
                           fields: Mapping[str, Any], now: float) -> None:
-        vehicle.configuration = [JausAddress(vehicle.subsystem, n, c)
-                                 for n, c in components_from_configuration(fields)]
+        if not vehicle.static and vehicle.address is not None:
+            self._discovery_sends(vehicle, vehicle.discovery.on_configuration(
+                components_from_configuration(fields), _component(vehicle.address), now,
+                self.profile.discovery, self.counters))
 
     def _on_confirm_control(self, vehicle: Vehicle, source: JausAddress,
                             fields: Mapping[str, Any], now: float) -> None:
@@ -1091,15 +1102,8 @@ class _LazyViews(Mapping[str, VehicleView]):
         return len(self._engine._by_id)
 
 
-def query_services_fields(nodes: Mapping[int, Sequence[int]]) -> dict[str, Any]:
-    """QueryServices fields asking for ``{node: [component, ...]}`` (255 = all)."""
-    return {
-        "node_list": [
-            {"node_rec": {"node_id": node},
-             "component_list": [{"component_id": c} for c in comps]}
-            for node, comps in nodes.items()
-        ]
-    }
+def _component(address: JausAddress) -> Component:
+    return address.node, address.component
 
 
 _HANDLERS = {
