@@ -35,19 +35,19 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from lossy_proxy import LossyProxy
 
-from links.udt import UdtLink
+from links.udt import UdtBulkChannel
 
 
 def _file(folder: Path, size: int, name: str) -> tuple[Path, object]:
     path = folder / name
     path.write_bytes(random.Random(size).randbytes(size))
-    return path, UdtLink.manifest_for_file(path, vehicle_id=f"bench{time.monotonic_ns()}")
+    return path, UdtBulkChannel.manifest_for_file(path, vehicle_id=f"bench{time.monotonic_ns()}")
 
 
 def _timed_send(path: Path, manifest: object, address: tuple[str, int],
                 max_rate: int | None = None, lanes: int = 1) -> float:
     started = time.perf_counter()
-    result = UdtLink.send_image(path, address, manifest=manifest, max_rate_bps=max_rate,
+    result = UdtBulkChannel.send_image(path, address, manifest=manifest, max_rate_bps=max_rate,
                                 give_up_after=120, lanes=lanes)
     elapsed = time.perf_counter() - started
     if not result.ok:
@@ -59,7 +59,7 @@ def loopback(folder: Path, size: int, runs: int, warm: bool) -> tuple[float, flo
     """Best goodput (MB/s) and median time (s); ``warm`` reuses one connection for all runs
     after a 10 MiB warm-up file, as a batch or the relay's forwarder does."""
     times = []
-    with UdtLink.ImageService(folder / f"lo{size}{warm}") as svc, UdtLink.BulkSender(
+    with UdtBulkChannel.ImageService(folder / f"lo{size}{warm}") as svc, UdtBulkChannel.BulkSender(
             svc.address, give_up_after=120) as sender:
         if warm:
             path, manifest = _file(folder, 10 << 20, "warmup.bin")
@@ -80,7 +80,7 @@ def loopback(folder: Path, size: int, runs: int, warm: bool) -> tuple[float, flo
 def lossy(folder: Path, size: int, max_rate: int | None, lanes: int, seed: int
           ) -> tuple[float, dict]:
     path, manifest = _file(folder, size, f"lossy{seed}.bin")
-    with UdtLink.ImageService(folder / f"lossy{seed}{lanes}{max_rate}") as svc, LossyProxy(
+    with UdtBulkChannel.ImageService(folder / f"lossy{seed}{lanes}{max_rate}") as svc, LossyProxy(
         svc.address, loss=0.02, delay=0.020, rate_bps=10e6, queue_bytes=64 * 1024, seed=seed,
         lifetime=300,
     ) as proxy:
@@ -104,7 +104,7 @@ def resume_time(folder: Path, runs: int) -> list[float]:
                 _d.append(time.perf_counter() - _c[0])
                 _r.set()
 
-        with UdtLink.ImageService(folder / f"resume{run}", publish=on_sample,
+        with UdtBulkChannel.ImageService(folder / f"resume{run}", publish=on_sample,
                                   publish_data=False) as svc:
             sender = threading.Thread(target=_timed_send,
                                       args=(path, manifest, svc.address, 80_000_000))

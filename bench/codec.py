@@ -8,7 +8,7 @@ timing. Two messages, each coded three ways with the scaling included:
   SetGlobalWaypoint plus a u16 waypoint tolerance; 282 bytes).
 
 ``hand`` is what one would write with ``struct`` for exactly that message (no presence
-vector logic beyond checking it); ``generic`` is :func:`edge_vis.codec.engine.decode_body`
+vector logic beyond checking it); ``generic`` is :func:`edge_vis.codec.bodies.decode_body`
 / ``encode_body`` on the DSL definition; ``construct`` is the same layout written with
 construct 2.10 and ``.compile()``-d. Each figure is the best of several timed loops of a
 fixed count.
@@ -27,7 +27,7 @@ from typing import Any
 
 import construct as cs
 
-from edge_vis.codec.engine import decode_body, encode_body
+from edge_vis.codec.bodies import decode_body, encode_body
 from edge_vis.codec.types import BitField, List, Scaled, SubField, f, message, opt, record
 from edge_vis.codec.types import u16 as U16
 from edge_vis.codec.types import u32 as U32

@@ -148,21 +148,19 @@ def proc_figures(pid: int) -> dict[str, int]:
     return out
 
 
-def read_totals(log: Path) -> dict[str, int]:
-    """The last ``totals:`` line the relay logged (a JSON object)."""
-    totals: dict[str, int] = {}
+def read_totals(log: Path, kind: str = "totals") -> dict[str, int]:
+    """The last ``totals:`` (or ``losses:``) line the relay logged (a JSON object)."""
+    found: dict[str, int] = {}
     for line in log.read_text(errors="replace").splitlines():
-        if "totals: " in line:
-            totals = json.loads(line.split("totals: ", 1)[1])
-    return totals
+        if f" {kind}: " in line:
+            found = json.loads(line.split(f" {kind}: ", 1)[1])
+    return found
 
 
-def lost_messages(totals: dict[str, int], poses_received: int) -> list[tuple[str, int, str]]:
-    """(where, how many lost, what was counted) from the relay's totals and the poses the
-    operator received."""
-    from edge_vis.shell.relay import losses
-
-    lost = losses(totals)
+def lost_messages(totals: dict[str, int], lost: dict[str, int],
+                  poses_received: int) -> list[tuple[str, int, str]]:
+    """(where, how many lost, what was counted) from the relay's totals, its own account
+    of what it lost (the ``losses:`` line), and the poses the operator received."""
     refused = sum(v for k, v in totals.items() if " dropped: " in k and k not in lost)
     published = totals.get("published GlobalPose", 0)
     return [
@@ -372,7 +370,8 @@ async def soak(args: argparse.Namespace) -> int:
             drops = {d["traffic_class"]: d["count"] for d in sample.get("drops", [])}
             print(f"  link {name}: in {sample['messages_in']} out {sample['messages_out']} "
                   f"queue {sample['queue_depth']} drops {drops or 'none'}")
-        lost = lost_messages(totals, sum(op.pose_count.values()))
+        lost = lost_messages(totals, read_totals(workdir / "relay.log", "losses"),
+                             sum(op.pose_count.values()))
         print("  messages lost")
         for what, count, detail in lost:
             print(f"    {what:<36} {count:>6}   {detail}")

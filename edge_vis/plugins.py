@@ -1,7 +1,7 @@
 """Finding and loading plugins through entry points. Reads package metadata and imports
 plugin modules; no other I/O.
 
-Links, translators and message sets are separate distributions (or the ``links`` and
+Links, bulk channels, translators and message sets are separate distributions (or the ``links`` and
 ``translators`` packages shipped beside the core) that declare entry points in one of
 :data:`GROUPS`. The core names a plugin only by group and entry-point name, so it never
 imports a plugin package by name, and a user adds one by installing it, not by editing
@@ -9,7 +9,10 @@ edge-vis.
 
 * :func:`available` lists a group from metadata alone: nothing is imported, so listing
   never fails because one plugin is broken.
-* :func:`load` imports one plugin on demand. A missing name raises
+* :func:`load` imports one plugin on demand and checks it against its group's contract
+  (:data:`CONTRACTS`: a link class, a bulk channel, a translator, a tuple of message
+  definitions), so a plugin in the wrong group is caught by ``edge-vis plugins --check``
+  and at start-up, not later inside the relay. A missing name raises
   :class:`~edge_vis.errors.PluginNotFoundError` listing the names that do exist; an
   import that fails, or an object of the wrong kind, raises
   :class:`~edge_vis.errors.PluginLoadError` naming the plugin, chained to the cause.
@@ -19,6 +22,7 @@ edge-vis.
 
 from __future__ import annotations
 
+import importlib
 import logging
 from dataclasses import dataclass
 from importlib import metadata
@@ -29,9 +33,19 @@ from edge_vis.errors import PluginConflictError, PluginLoadError, PluginNotFound
 log = logging.getLogger(__name__)
 
 LINKS = "edge_vis.links"
+BULK = "edge_vis.bulk"
 TRANSLATORS = "edge_vis.translators"
 MESSAGES = "edge_vis.messages"
-GROUPS: tuple[str, ...] = (LINKS, TRANSLATORS, MESSAGES)
+GROUPS: tuple[str, ...] = (LINKS, BULK, TRANSLATORS, MESSAGES)
+
+#: the type every plugin of a group must be (a subclass of, for classes), by
+#: ``module:qualname``: imported only when a plugin of that group is loaded
+CONTRACTS: dict[str, str] = {
+    LINKS: "edge_vis.routing.link:Link",
+    BULK: "edge_vis.routing.bulk:BulkChannel",
+    TRANSLATORS: "edge_vis.kit.contract:Translator",
+    MESSAGES: "builtins:tuple",
+}
 
 #: Distribution shown for plugins added with :func:`register`.
 REGISTERED = "(registered)"
@@ -133,9 +147,10 @@ def unregister(group: str, name: str) -> None:
 def load(group: str, name: str, expected_type: type | None = None) -> Any:
     """Import and return plugin ``name`` of ``group``.
 
-    With ``expected_type``, the plugin must be a subclass of it (when it is a class) or an
-    instance of it; otherwise :class:`PluginLoadError` is raised, so a wrong entry point
-    fails at start-up with the plugin's name rather than later inside the relay.
+    The plugin must be a subclass (when it is a class) or an instance of
+    ``expected_type``, by default its group's contract (:data:`CONTRACTS`); otherwise
+    :class:`PluginLoadError` is raised, so a wrong entry point fails at start-up with the
+    plugin's name rather than later inside the relay.
     """
     registered = _registry.get(group, {})
     if name in registered:
@@ -156,6 +171,8 @@ def load(group: str, name: str, expected_type: type | None = None) -> Any:
             raise _load_error(
                 group, name, exc, f"cannot import {target.value}: {type(exc).__name__}: {exc}"
             ) from exc
+    if expected_type is None:
+        expected_type = contract(group)
     if expected_type is not None and not _conforms(obj, expected_type):
         kind = f"class {obj.__qualname__}" if isinstance(obj, type) else type(obj).__name__
         raise _load_error(
@@ -163,6 +180,18 @@ def load(group: str, name: str, expected_type: type | None = None) -> Any:
             f"{_describe(target)} is a {kind}, not a {expected_type.__qualname__}",
         )
     return obj
+
+
+def contract(group: str) -> type | None:
+    """The type plugins of ``group`` must be, or None for a group without a contract."""
+    target = CONTRACTS.get(group)
+    if target is None:
+        return None
+    module, _, qualname = target.partition(":")
+    obj: Any = importlib.import_module(module)
+    for part in qualname.split("."):
+        obj = getattr(obj, part)
+    return obj if isinstance(obj, type) else None
 
 
 def _conforms(obj: Any, expected: type) -> bool:

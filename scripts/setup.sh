@@ -133,7 +133,7 @@ want="$(cksum <"$ROOT/pyproject.toml" | cut -d' ' -f1) $ROOT $EXTRAS"
 installed_here() {  # edge_vis imports from this tree and every extra's package imports
     "$VPY" - "$ROOT" <<'EOF' >/dev/null 2>&1
 import pathlib, sys
-import cyclonedds, serial, udt4py, pytest, hypothesis, construct  # noqa: F401
+import cyclonedds, serial, udt4py, pytest, hypothesis, construct, mypy  # noqa: F401
 import edge_vis
 sys.exit(pathlib.Path(edge_vis.__file__).resolve().parent != pathlib.Path(sys.argv[1]) / "edge_vis")
 EOF

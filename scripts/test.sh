@@ -3,8 +3,8 @@
 #
 #   bash scripts/test.sh [extra pytest arguments]
 #
-# Runs scripts/setup.sh, then `ruff check .` and `pytest -q tests/`. Both always run so
-# one report shows every problem. A pytest run that collects no test (exit 5) is a
+# Runs scripts/setup.sh, then `ruff check .`, `mypy` (the core packages, as configured in
+# pyproject.toml) and `pytest -q tests/`. All always run so one report shows every problem. A pytest run that collects no test (exit 5) is a
 # failure. $EDGE_VIS_TEST_TIMEOUT (seconds, default 1800) bounds the pytest run so a hung
 # test fails instead of blocking CI.
 set -uo pipefail
@@ -21,6 +21,12 @@ status=0
 echo "test: ruff check ." >&2
 if ! "$VPY" -m ruff check --quiet .; then
     echo "test: FAILED: ruff found problems (above)" >&2
+    status=1
+fi
+
+echo "test: mypy (core packages)" >&2
+if ! "$VPY" -m mypy; then
+    echo "test: FAILED: mypy found problems (above)" >&2
     status=1
 fi
 

@@ -20,7 +20,7 @@ from typing import Any
 
 from hypothesis import strategies as st
 
-from edge_vis.codec.engine import scaling
+from edge_vis.codec.bodies import scaling
 from edge_vis.codec.layout import subfield_mask
 from edge_vis.codec.reference import scaled_raw
 from edge_vis.codec.types import (

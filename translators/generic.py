@@ -25,6 +25,7 @@ from edge_vis.kit import (
     Const,
     ReportRule,
     RuleTranslator,
+    TopicDecl,
     declarations,
     get_path,
 )
@@ -160,17 +161,9 @@ class GenericTranslator(RuleTranslator):
             doc="profile mapping",
         )
 
-    def _topic_specs(self) -> tuple[Any, ...]:
-        if not self.mappings:
-            return ()
-        try:  # DDS types exist only where Cyclone DDS is installed
-            from edge_vis.dds.model import GenericReport  # type: ignore[attr-defined]
-            from edge_vis.dds.topics import TopicKind, TopicSpec
-        except ImportError:
-            return ()
-        return tuple(dict.fromkeys(
-            TopicSpec(m.topic, GenericReport, TopicKind.TELEMETRY, owner=self.name)
-            for m in self.mappings if m.topic != "GenericReport"))
+    def _topic_specs(self) -> tuple[TopicDecl, ...]:
+        return tuple(dict.fromkeys(TopicDecl(m.topic, "GenericReport", "telemetry")
+                                   for m in self.mappings if m.topic != "GenericReport"))
 
     def describe(self) -> list[dict[str, Any]]:
         rows = super().describe()

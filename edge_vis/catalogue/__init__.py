@@ -32,7 +32,7 @@ from functools import cache
 from typing import Any
 
 from edge_vis import plugins
-from edge_vis.codec.engine import MessageCodec, compile_message
+from edge_vis.codec.bodies import MessageCodec, compile_message
 from edge_vis.codec.layout import check_message, wire_signature
 from edge_vis.codec.types import Enum, Int, JausMessage, MessageDef, Record
 from edge_vis.errors import (
@@ -138,24 +138,24 @@ class Catalogue:
             if earlier is None:
                 incoming[defn.code] = defn
         if not replace:
-            for code, defn in incoming.items():
-                old = self._defs.get(code)
+            for number, defn in incoming.items():
+                old = self._defs.get(number)
                 if old is not None and not _same(old, defn):
                     raise PluginConflictError(
-                        f"message code 0x{code:04X}: {_who(defn, source)} conflicts with "
-                        f"{_who(old, self._sources[code])}"
+                        f"message code 0x{number:04X}: {_who(defn, source)} conflicts with "
+                        f"{_who(old, self._sources[number])}"
                     )
-        for code, defn in incoming.items():
-            old = self._defs.get(code)
+        for number, defn in incoming.items():
+            old = self._defs.get(number)
             if old is not None:
                 if not replace or old is defn:
                     continue
                 self._names[old.name].remove(old)
                 if not self._names[old.name]:
                     del self._names[old.name]
-                self._codecs.pop(code, None)
-            self._defs[code] = defn
-            self._sources[code] = source
+                self._codecs.pop(number, None)
+            self._defs[number] = defn
+            self._sources[number] = source
             self._names.setdefault(defn.name, []).append(defn)
         self._event = None
 

@@ -46,9 +46,10 @@ import logging
 import math
 import operator
 import re
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import ClassVar, overload
 from xml.parsers import expat
 
 from edge_vis.codec.types import (
@@ -120,7 +121,12 @@ class Node:
     text: str = ""
     parent: Node | None = field(default=None, repr=False)
 
+    @overload
+    def get(self, key: str) -> str | None: ...
+    @overload
+    def get(self, key: str, default: str) -> str: ...
     def get(self, key: str, default: str | None = None) -> str | None:
+        """Attribute ``key``; with a string ``default``, always a string."""
         return self.attrs.get(key, default)
 
     @property
@@ -306,7 +312,7 @@ class Scope:
             raise _fail(at, f"unresolved constant {dotted!r}")
         return scope.evaluate(node.get("const_value", ""), node)
 
-    _OPS = {
+    _OPS: ClassVar[dict[type, Callable[..., float]]] = {
         ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
         ast.Div: operator.truediv, ast.USub: operator.neg, ast.UAdd: operator.pos,
     }
@@ -387,8 +393,9 @@ class JsidlModel:
         if not key[0]:
             raise _fail(root, f"{root.tag} has no id attribute")
         if key in table:
+            loaded = table[key].node
             log.debug("%s: %s %s v%s already loaded from %s", root.file, root.tag, key[0],
-                      key[1], table[key].node.file if table[key].node else "?")
+                      key[1], loaded.file if loaded is not None else "?")
             return
         table[key] = Scope.of(self, root, label=f"{root.tag} {key[0]} v{key[1]}")
 

@@ -276,8 +276,8 @@ def check_type(ft: FieldType, path: str = "") -> list[str]:
         bad(f"not a field type: {type(ft).__name__}")
         return problems
     for seg, child in children(ft):
-        sub = f"{path}{seg}" if seg == "[]" else (f"{path}.{seg}" if path else seg)
-        problems.extend(check_type(child, sub))
+        where = f"{path}{seg}" if seg == "[]" else (f"{path}.{seg}" if path else seg)
+        problems.extend(check_type(child, where))
     return problems
 
 

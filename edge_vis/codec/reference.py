@@ -123,8 +123,8 @@ def decode_type(ft: FieldType, buf: bytes, pos: int, path: str = "") -> tuple[An
             )
         _need(buf, pos, n, path, "counted data")
         data = bytes(buf[pos : pos + n])
-        value: Any = data.decode("latin-1") if isinstance(ft, VarString) else data
-        return value, pos + n
+        counted: Any = data.decode("latin-1") if isinstance(ft, VarString) else data
+        return counted, pos + n
     if isinstance(ft, VarFormat):
         fmt = _read_int(buf, pos, ft.format.raw, path, "format")
         pos += ft.format.raw.size
@@ -333,10 +333,11 @@ def scaled_raw(ft: Scaled, value: Any, path: str = "") -> int:
         raise EncodeError(f"expected a number, got {type(value).__name__}", path=path)
     if not math.isfinite(value):
         raise EncodeError(f"{value!r} is not a finite number", path=path)
+    number = float(value)
     scale, bias = scaling(ft)
-    raw = round((value - bias) / scale)
+    raw = round((number - bias) / scale)
     if raw < ft.raw.min or raw > ft.raw.max:
-        if not ft.lower <= value <= ft.upper:
+        if not ft.lower <= number <= ft.upper:
             raise EncodeError(
                 f"{value!r} outside the scaled range [{ft.lower}, {ft.upper}]", path=path
             )

@@ -1,7 +1,7 @@
 """Declarative field types for JAUS messages. No I/O.
 
 A message is *data*: a tree of the frozen values below, mirroring the JSIDL constructs
-(AS5684). The engine in :mod:`edge_vis.codec.engine` compiles each tree once into fast
+(AS5684). The engine in :mod:`edge_vis.codec.bodies` compiles each tree once into fast
 encoders and decoders. Decoded values are plain Python:
 
 ============================  ================================================

@@ -793,11 +793,11 @@ def default_profile_path() -> Path:
     ``profiles/default.toml`` next to the ``edge_vis`` package (source checkout or
     editable install); otherwise the copy shipped inside the package.
     """
-    here = Path(__file__).resolve().parent
-    beside = here.parent / "profiles" / "default.toml"
+    package = Path(__file__).resolve().parents[1]
+    beside = package.parent / "profiles" / "default.toml"
     if beside.is_file():
         return beside
-    return here / "data" / "default.toml"
+    return package / "data" / "default.toml"
 
 
 def load_default_profile() -> RelayProfile:

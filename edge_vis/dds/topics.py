@@ -16,6 +16,7 @@ import dataclasses
 import enum
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
+from typing import Any
 
 from cyclonedds.idl import IdlStruct
 
@@ -166,9 +167,13 @@ class TopicRegistry:
         self._typenames.setdefault(spec.typename, spec)
         return spec
 
-    def register_all(self, specs: Iterable[TopicSpec], owner: str | None = None) -> None:
-        """Register every spec of one plugin, stamped with ``owner`` if given."""
+    def register_all(self, specs: Iterable[Any], owner: str | None = None) -> None:
+        """Register every topic of one plugin, stamped with ``owner`` if given: a
+        :class:`TopicSpec`, or a translator's :class:`~edge_vis.kit.TopicDecl` naming a
+        type of the data model."""
         for spec in specs:
+            if not isinstance(spec, TopicSpec):
+                spec = from_declaration(spec)
             self.register(spec if owner is None else dataclasses.replace(spec, owner=owner))
 
     def get(self, name: str) -> TopicSpec:
@@ -196,3 +201,18 @@ class TopicRegistry:
     def inbound(self) -> list[str]:
         """Names of the topics the relay subscribes to (commands)."""
         return [s.name for s in self._specs.values() if s.inbound]
+
+
+def from_declaration(decl: Any) -> TopicSpec:
+    """The :class:`TopicSpec` of a translator's topic declaration (``name``,
+    ``type_name`` of :mod:`edge_vis.dds.model`, ``kind``); ValueError names what is wrong."""
+    cls = getattr(model, str(getattr(decl, "type_name", "")), None)
+    if not (isinstance(cls, type) and issubclass(cls, IdlStruct)):
+        raise ValueError(f"topic {getattr(decl, 'name', decl)!r}: "
+                         f"{getattr(decl, 'type_name', None)!r} is not a type of the data model")
+    try:
+        kind = TopicKind(decl.kind)
+    except ValueError:
+        raise ValueError(f"topic {decl.name!r}: kind {decl.kind!r} is not one of "
+                         f"{', '.join(k.value for k in TopicKind)}") from None
+    return TopicSpec(decl.name, cls, kind)

@@ -10,11 +10,17 @@ subscribed topic is claimed twice (each must go to exactly one translator), and 
 translators may *publish* one topic (still images and ATR images are both image
 products): a DDS topic has many writers, each keyed by its vehicle. The engine itself owns
 the ``ControlRequest`` topic (operator arbitration).
+
+A translator is a plugin, so it may fail: an exception from any hook, on either
+direction, is caught here, counted per translator (:attr:`TranslationManager.errors`,
+shown in the relay's totals as a loss) and logged a few times a minute at most; the
+message or sample is dropped and the relay keeps running.
 """
 
 from __future__ import annotations
 
 import logging
+from collections import Counter
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
@@ -23,6 +29,7 @@ from edge_vis.config import TranslatorSelection
 from edge_vis.errors import PluginConflictError, PluginLoadError
 from edge_vis.kit.actions import Action
 from edge_vis.kit.contract import ReportSpec, Translator, TranslatorContext
+from edge_vis.routing.accounting import LogLimiter
 
 log = logging.getLogger(__name__)
 
@@ -40,6 +47,9 @@ class TranslationManager:
         self.by_topic: dict[str, Translator] = {}
         #: published topic -> the translators writing it (several may)
         self.publishers: dict[str, tuple[Translator, ...]] = {}
+        #: translator name -> how many calls raised
+        self.errors: Counter[str] = Counter()
+        self._log = LogLimiter(log)
         claims_message: dict[str, str] = {}
         claims_sub: dict[str, str] = dict.fromkeys(ENGINE_SUBSCRIBES, ENGINE)
         for tr in self.translators:
@@ -107,20 +117,43 @@ class TranslationManager:
                    ctx: TranslatorContext) -> list[Action]:
         """Give a JAUS message to the translator that claims it."""
         tr = self.by_message.get(name)
-        return list(tr.on_message(name, fields, ctx)) if tr is not None else []
+        if tr is None:
+            return []
+        try:
+            return list(tr.on_message(name, fields, ctx))
+        except Exception as exc:
+            return self._failed(tr, f"JAUS {name}", exc, ctx)
 
     def on_sample(self, topic: str, sample: Mapping[str, Any],
                   ctx: TranslatorContext) -> list[Action]:
         """Give a DDS sample to the translator that subscribes to its topic."""
         tr = self.by_topic.get(topic)
-        return list(tr.on_sample(topic, sample, ctx)) if tr is not None else []
+        if tr is None:
+            return []
+        try:
+            return list(tr.on_sample(topic, sample, ctx))
+        except Exception as exc:
+            return self._failed(tr, f"DDS {topic}", exc, ctx)
 
     def on_vehicle(self, change: str, ctx: TranslatorContext) -> list[Action]:
         """Tell every translator that the vehicle in ``ctx`` changed."""
         out: list[Action] = []
         for tr in self.translators:
-            out.extend(tr.on_vehicle(change, ctx))
+            try:
+                out.extend(tr.on_vehicle(change, ctx))
+            except Exception as exc:
+                self._failed(tr, f"vehicle {change}", exc, ctx)
         return out
+
+    def _failed(self, tr: Translator, what: str, exc: Exception,
+                ctx: TranslatorContext) -> list[Action]:
+        who = _name(tr)
+        self.errors[who] += 1
+        vehicle = ctx.vehicle.vehicle_id if ctx.vehicle is not None else "-"
+        self._log.warning(f"translator {who}", ctx.now,
+                          "translator %s failed on %s from %s (dropped): %s: %s", who, what,
+                          vehicle, type(exc).__name__, exc)
+        return []
 
     def topics(self) -> tuple[Iterable[str], Iterable[str]]:
         """(published topics, subscribed topics) for the DDS bridge to create."""

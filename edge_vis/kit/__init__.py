@@ -31,6 +31,7 @@ from edge_vis.kit.actions import (
 from edge_vis.kit.contract import (
     STATUS_NAMES,
     ReportSpec,
+    TopicDecl,
     Translator,
     TranslatorContext,
     VehicleView,
@@ -66,7 +67,7 @@ __all__ = [
     "NAN", "STATUS_NAMES", "Action", "Build", "Command", "CommandRule", "Computed",
     "ConfigError", "Const", "DeclareVehicle", "Each", "From", "JausAddress", "Publish", "Put",
     "PutEach", "ReportRule", "ReportSpec", "RuleTranslator", "SendMessage", "ShutdownComplete",
-    "Spec", "Translator", "TranslatorContext", "VehicleView", "clamp", "code_of",
+    "Spec", "TopicDecl", "Translator", "TranslatorContext", "VehicleView", "clamp", "code_of",
     "declarations", "derive_vehicle_id", "describe_rules", "extract", "flags", "get_path",
     "label", "number", "put", "set_path",
 ]

@@ -59,6 +59,18 @@ class ReportSpec:
 
 
 @dataclass(frozen=True, slots=True)
+class TopicDecl:
+    """A DDS topic a translator adds: ``name`` carries the data-model type ``type_name``
+    (``"GenericReport"``) with the QoS of ``kind`` (``telemetry``, ``state``, ``command``,
+    ``product`` or ``bulk``). A declaration, so the kit needs no DDS to describe it; the
+    DDS side resolves the type when the relay opens its topics."""
+
+    name: str
+    type_name: str
+    kind: str = "telemetry"
+
+
+@dataclass(frozen=True, slots=True)
 class VehicleView:
     """What translators may know about a vehicle (a snapshot; changing it changes nothing).
 
@@ -120,8 +132,9 @@ class Translator(ABC):  # noqa: B024 - every hook has a harmless default
     publishes: ClassVar[tuple[str, ...]] = ()
     subscribes: ClassVar[tuple[str, ...]] = ()
     controlled_services: ClassVar[tuple[str, ...]] = ()
-    #: DDS topics of this translator's own types (``edge_vis.dds.topics.TopicSpec``), for
-    #: custom translators whose data fits none of the shipped model's topics
+    #: DDS topics of this translator's own: :class:`TopicDecl` (a topic name for a type of
+    #: the shipped data model), or ``edge_vis.dds.topics.TopicSpec`` for a custom
+    #: translator that brings its own IDL type
     topic_types: ClassVar[tuple[Any, ...]] = ()
 
     def on_message(

@@ -345,8 +345,8 @@ class RuleTranslator(Translator):
         for rule in self.report_rules:
             self._by_message.setdefault(rule.message, []).append(rule)
         self._by_topic: dict[str, list[CommandRule]] = {}
-        for rule in self.command_rules:
-            self._by_topic.setdefault(rule.topic, []).append(rule)
+        for command in self.command_rules:
+            self._by_topic.setdefault(command.topic, []).append(command)
 
     # -- JAUS -> DDS -----------------------------------------------------------------------
 

@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 from urllib.parse import parse_qsl, urlsplit
 
-from edge_vis.errors import ConfigError
+from edge_vis.errors import ConfigError, PluginNotFoundError
 from edge_vis.jaus.transport import JTS_MAX_PAYLOAD, Packet
 
 log = logging.getLogger(__name__)
@@ -393,6 +393,11 @@ def link_class(scheme: str) -> type[Link]:
     """
     from edge_vis import plugins
 
+    if scheme not in plugins.available(plugins.LINKS) and scheme in plugins.available(
+            plugins.BULK):
+        raise PluginNotFoundError(
+            f"{scheme}:// is a bulk channel for image files, not a JAUS link: give it in "
+            f"the profile's [bulk] table (or use send-image / receive-images), not as a link")
     cls: type[Link] = plugins.load(plugins.LINKS, scheme, Link)
     return cls
 

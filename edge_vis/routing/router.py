@@ -57,7 +57,7 @@ from edge_vis.errors import EncodeError, LocalProtocolError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import JTS_MAX_PAYLOAD, AckNak, Broadcast, DataFlags, Packet
 from edge_vis.routing.link import Peer, format_peer
-from edge_vis.routing.traffic import LATEST_WINS_MAX_PRIORITY, latest_wins_key
+from edge_vis.routing.traffic import LATEST_WINS_MAX_PRIORITY, QueueDrop, latest_wins_key
 
 try:  # large-message support lives in its own module; routing works without it
     from edge_vis.jaus.fragments import Reassembler, fragment
@@ -143,7 +143,7 @@ class _LinkState:
     queues: tuple[deque[tuple[Peer | None, Packet, int]], ...] = field(
         default_factory=lambda: tuple(deque() for _ in range(4))
     )
-    drops: Counter[str] = field(default_factory=Counter)
+    drops: Counter[QueueDrop] = field(default_factory=Counter)
     sent: int = 0
     latest_wins: bool = False
 
@@ -169,7 +169,7 @@ class LinkQueueStats:
     queued_bytes: int
     busy: bool
     sent: int
-    drops: dict[str, int]
+    drops: dict[QueueDrop, int]
 
 
 @dataclass(frozen=True, slots=True)
@@ -201,7 +201,7 @@ class Router:
         self._pending: dict[tuple[int, int], _Pending] = {}
         self._next_sweep: float | None = None
         self._reassembler = (
-            Reassembler(timeout=self.config.reassembly_timeout) if Reassembler else None
+            Reassembler(timeout=self.config.reassembly_timeout) if Reassembler is not None else None
         )
         self.counters: Counter[str] = Counter()
 
@@ -582,7 +582,7 @@ class Router:
         if max(len(p.payload) for p in packets) > mtu:
             fits = [p for p in packets if len(p.payload) <= mtu]
             dropped = len(packets) - len(fits)
-            state.drops["exceeds MTU"] += dropped
+            state.drops[QueueDrop("exceeds MTU")] += dropped
             self.counters["dropped: exceeds MTU"] += dropped
             packets = fits
         if not packets:
@@ -603,7 +603,7 @@ class Router:
             level = next(i for i in range(4) if queues[i])
             _, _victim, cost = queues[level].popleft()
             state.queued_bytes -= cost
-            reason = f"queue full (priority {level})"
+            reason = QueueDrop("queue full", level)
             state.drops[reason] += 1
             self.counters[f"dropped: {reason}"] += 1
         self._drain(state, now, actions)
@@ -618,7 +618,7 @@ class Router:
             if queued_peer == peer and latest_wins_key(queued) == key:
                 del queue[index]
                 state.queued_bytes -= cost
-                reason = f"superseded (priority {packet.priority & 3})"
+                reason = QueueDrop("superseded", packet.priority & 3)
                 state.drops[reason] += 1
                 self.counters[f"dropped: {reason}"] += 1
                 return

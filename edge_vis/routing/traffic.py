@@ -19,6 +19,7 @@ link, serves the highest first and paces a link with a byte budget. What this mo
 from __future__ import annotations
 
 from collections.abc import Hashable, Mapping
+from dataclasses import dataclass
 
 from edge_vis.jaus.transport import AckNak, DataFlags, Packet
 
@@ -70,3 +71,22 @@ def class_names(priority: int, priorities: Mapping[str, int]) -> str:
     """The traffic classes a header priority serves (``"control/command"``), for status."""
     names = [name for name, value in priorities.items() if value == priority]
     return "/".join(names) if names else f"priority {priority}"
+
+
+@dataclass(frozen=True, order=True, slots=True)
+class QueueDrop:
+    """Why a link queue dropped a packet, as data: ``cause`` and the header priority it was
+    queued at (None where the priority does not matter). Status names the traffic classes
+    of that priority on the link's profile (:meth:`named`), never by rewriting text."""
+
+    cause: str
+    priority: int | None = None
+
+    def __str__(self) -> str:
+        return self.cause if self.priority is None else f"{self.cause} (priority {self.priority})"
+
+    def named(self, priorities: Mapping[str, int]) -> str:
+        """``queue full (telemetry)``: the cause with the classes its priority serves."""
+        if self.priority is None:
+            return self.cause
+        return f"{self.cause} ({class_names(self.priority, priorities)})"

@@ -36,9 +36,11 @@ from edge_vis.errors import CodecError, EdgeVisError, EncodeError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import Broadcast, Packet
 from edge_vis.kit.actions import Publish, SendMessage, ShutdownComplete
-from edge_vis.routing.link import Link, LinkUrl, Peer
+from edge_vis.routing.accounting import Kind, LogLimiter, Tally, losses, tallies_of, totals
+from edge_vis.routing.bulk import BulkChannel
+from edge_vis.routing.link import Link, LinkUrl, Peer, link_class
 from edge_vis.routing.router import Deliver, DeliveryFailed, Router, RouterConfig, SendPackets
-from edge_vis.routing.traffic import class_names, priority_for
+from edge_vis.routing.traffic import priority_for
 from edge_vis.shell.mirror import Mirror
 
 log = logging.getLogger(__name__)
@@ -47,36 +49,6 @@ log = logging.getLogger(__name__)
 LINK_STATUS_PERIOD = 1.0
 #: seconds between two ``totals:`` log lines
 TOTALS_PERIOD = 600.0
-#: counters of :meth:`Runtime.totals` that mean the relay lost something it had accepted
-LOSS_COUNTERS = ("publish errors", "send errors", "encode errors", "delivery failed")
-#: link drop reasons of input refused on arrival (garbage on the wire): not losses
-REFUSED_INPUT = ("malformed",)
-#: at most this many log lines per reason and minute for bad input from the network
-_LOG_BURST = 5
-
-
-class _RateLimitedLog:
-    def __init__(self) -> None:
-        self._window: dict[str, tuple[float, int]] = {}
-
-    def warning(self, reason: str, now: float, msg: str, *args: object) -> None:
-        start, count = self._window.get(reason, (now, 0))
-        if now - start > 60.0:
-            start, count = now, 0
-        if count < _LOG_BURST:
-            log.warning(msg, *args)
-        elif count == _LOG_BURST:
-            log.warning("%s: further messages of this kind suppressed for a minute", reason)
-        self._window[reason] = (start, count + 1)
-
-
-def losses(totals: Mapping[str, int]) -> dict[str, int]:
-    """The non-zero counts in ``totals`` (:meth:`Runtime.totals`, or its logged copy) of
-    what the relay accepted and then lost: link drops other than refused input, and
-    publish, send, encode and delivery errors."""
-    return {k: v for k, v in totals.items()
-            if v and (k in LOSS_COUNTERS or (" dropped: " in k and not k.split(
-                " dropped: ", 1)[1].startswith(REFUSED_INPUT)))}
 
 
 class Runtime:
@@ -120,7 +92,7 @@ class Runtime:
         self._stopped: asyncio.Event | None = None
         self._shutdown_done: asyncio.Event | None = None
         self._status_task: asyncio.Task[None] | None = None
-        self._log = _RateLimitedLog()
+        self._log = LogLimiter(log)
         self.first_discovery_at: float | None = None
         self.images: Any = None  # the UDT image service, when the profile has [bulk]
         #: the bandwidth planner, when a link has a link profile (see edge_vis.bandwidth)
@@ -161,7 +133,7 @@ class Runtime:
 
     async def _open_link(self, name: str, url: str, bandwidth: int) -> None:
         parsed = LinkUrl.parse(url)
-        cls = plugins.load(plugins.LINKS, parsed.scheme)
+        cls = link_class(parsed.scheme)
         options = dict(parsed.options)
         if bandwidth and "bandwidth" not in options:
             url = url + ("&" if "?" in url else "?") + f"bandwidth={bandwidth}"
@@ -196,7 +168,7 @@ class Runtime:
 
     def _start_bulk(self, bulk: BulkProfile) -> None:
         """The UDT image receiver: spooled, verified, published here, forwarded on."""
-        udt = plugins.load(plugins.LINKS, "udt")
+        udt = plugins.load(plugins.BULK, "udt", BulkChannel)
         loop = self._loop
         assert loop is not None
 
@@ -420,26 +392,40 @@ class Runtime:
             return
         self.published[topic] += 1
 
-    def totals(self) -> dict[str, int]:
-        """Every count since start, flat and sorted: the relay's, the engine's, each link's
-        traffic and drops, and the samples published per topic (logged every
-        :data:`TOTALS_PERIOD` and on stop, so a journal shows where messages went)."""
-        out: Counter[str] = Counter(self.counters)
+    def tallies(self) -> dict[Tally, int]:
+        """Every count since start, as data: the relay's, the engine's, each translator's
+        failures, each link's traffic and drops, the samples published per topic."""
+        out: dict[Tally, int] = tallies_of(Kind.RELAY, self.counters)
         if self.engine is not None:
-            out.update({k.replace("_", " "): v for k, v in self.engine.counters.items()})
+            out.update(tallies_of(Kind.ENGINE, {k.replace("_", " "): v for k, v in
+                                                self.engine.counters.items()}))
+            for name, count in self.engine.manager.errors.items():
+                out[Tally(Kind.TRANSLATOR_ERROR, "errors", name)] = count
         for sample in self.link_status():
             name = sample["link"]
-            for key in ("messages_in", "messages_out"):
-                out[f"link {name} {key.replace('_', ' ')}"] = int(sample[key])
-            for drop in sample["drops"]:
-                out[f"link {name} dropped: {drop['traffic_class']}"] = int(drop["count"])
+            out.update(tallies_of(Kind.LINK_TRAFFIC, {
+                "messages in": sample["messages_in"], "messages out": sample["messages_out"]},
+                name))
+            out.update(tallies_of(Kind.LINK_DROP, {d["traffic_class"]: d["count"]
+                                                   for d in sample["drops"]}, name))
         for topic, count in self.published.items():
-            out[f"published {topic}"] = count
-        return dict(sorted(out.items()))
+            out[Tally(Kind.PUBLISHED, "samples", topic)] = count
+        return out
+
+    def totals(self) -> dict[str, int]:
+        """Every count since start, flat and sorted (:func:`accounting.totals`; logged
+        every :data:`TOTALS_PERIOD` and on stop, so a journal shows where messages went)."""
+        return totals(self.tallies())
+
+    def losses(self) -> dict[str, int]:
+        """What the relay accepted and then lost, by counter (empty when nothing)."""
+        return losses(self.tallies())
 
     def log_totals(self) -> None:
         """One log line with :meth:`totals` as a JSON object (drop reasons hold commas)."""
-        log.info("totals: %s", json.dumps(self.totals()))
+        tallies = self.tallies()
+        log.info("totals: %s", json.dumps(totals(tallies)))
+        log.info("losses: %s", json.dumps(losses(tallies)))
 
     def _rearm(self, now: float) -> None:
         assert self._loop is not None
@@ -480,11 +466,8 @@ class Runtime:
             spec = self._spec(name)
             if queue is not None:
                 priorities = spec.priorities if spec else DEFAULT_PRIORITIES
-                for reason, count in queue.drops.items():  # name the classes, not numbers
-                    for level in range(4):
-                        reason = reason.replace(f"priority {level})",
-                                                f"{class_names(level, priorities)})")
-                    drops[reason] += count
+                for drop, count in queue.drops.items():  # name the classes, not numbers
+                    drops[drop.named(priorities)] += count
             samples.append({
                 "link": name, "vehicle_id": "", "up": stats.state == "open",
                 "budget_bps": (spec.budget_bps if spec is not None and spec.limited

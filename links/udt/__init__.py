@@ -1,7 +1,8 @@
 """The UDT bulk channel: whole, verified, resumable image files from vehicles to operators.
 
-Entry point ``udt`` in group ``edge_vis.links`` names :class:`UdtLink`. Unlike the JAUS
-packet links, this plugin carries files, not packets: large ATR images travel on their
+Entry point ``udt`` in group ``edge_vis.bulk`` names :class:`UdtBulkChannel`, a
+:class:`~edge_vis.routing.bulk.BulkChannel`. Unlike the JAUS packet links, this plugin
+carries files, not packets: large ATR images travel on their
 own UDT connection (vehicle → relay → operator station) so they never compete with
 control traffic beyond the rate budget they are given.
 
@@ -15,25 +16,25 @@ from __future__ import annotations
 
 from typing import ClassVar
 
+from edge_vis.routing.bulk import BulkChannel
+from links.udt.image_service import ImageService, manifest_for_file, send_image
 from links.udt.keys import load_keys
-from links.udt.link import BulkReceiver, BulkSender, Forwarder, TransferResult, parse_address
 from links.udt.protocol import AtrMetadata, Backoff, Manifest, Position, Reason
-from links.udt.service import ImageService, manifest_for_file, send_image
 from links.udt.spool import Spool, SpoolRefusal
+from links.udt.transfer import BulkReceiver, BulkSender, Forwarder, TransferResult, parse_address
 
 
-class UdtLink:
-    """Namespace of the UDT bulk channel, as loaded through the ``edge_vis.links`` entry point.
+class UdtBulkChannel(BulkChannel):
+    """The UDT bulk channel, as loaded through the ``edge_vis.bulk`` entry point.
 
     The core reaches everything through this class so it never imports ``links``::
 
-        udt = edge_vis.plugins.load("edge_vis.links", "udt")
+        udt = edge_vis.plugins.load("edge_vis.bulk", "udt")
         result = udt.send_image("img.png", "10.0.0.2:9000", vehicle_id="uuv1")
         service = udt.ImageService("images/", "0.0.0.0:9000", forward=["ops:9000"]).start()
     """
 
     scheme: ClassVar[str] = "udt"
-    kind: ClassVar[str] = "bulk"
 
     send_image = staticmethod(send_image)
     manifest_for_file = staticmethod(manifest_for_file)
@@ -53,4 +54,4 @@ class UdtLink:
     TransferResult = TransferResult
 
 
-__all__ = ["UdtLink"]
+__all__ = ["UdtBulkChannel"]

@@ -6,7 +6,7 @@ from edge_vis.bandwidth.linkspec import LinkSpec
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import DataFlags, Packet
 from edge_vis.routing.router import Router, SendPackets
-from edge_vis.routing.traffic import latest_wins_key, priority_for
+from edge_vis.routing.traffic import QueueDrop, latest_wins_key, priority_for
 
 RELAY = JausAddress(200, 1, 1)
 UGV = JausAddress(101, 1, 1)
@@ -63,7 +63,7 @@ def test_latest_wins_for_telemetry_never_for_commands() -> None:
     assert codes.count((0x2402, UGV)) == 1 and codes.count((0x2402, OTHER)) == 1
     assert codes.count((0x0405, UGV)) == 5  # commands are never superseded or dropped
     drops = r.stats().links["radio"].drops
-    assert drops == {f"superseded (priority {TELEMETRY})": 8}
+    assert drops == {QueueDrop("superseded", TELEMETRY): 8}
 
 
 def test_paced_at_the_budget() -> None:

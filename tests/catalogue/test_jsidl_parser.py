@@ -249,7 +249,7 @@ def test_a_directory_loads_like_its_files(tmp_path: Path) -> None:
 
 def test_user_message_decodes_its_bytes(tmp_path: Path) -> None:
     """The loaded definition decodes a body laid out as the JSIDL says."""
-    engine = pytest.importorskip("edge_vis.codec.engine")
+    engine = pytest.importorskip("edge_vis.codec.bodies")
     status = by_name(load_jsidl(write_demo(tmp_path)))["ReportDemoStatus"]
     # PV: latitude (bit 0) and label (bit 3); mode is mandatory
     body = struct.pack("<BHIB", 0b1001, 7, 0xFFFFFFFF, 1) + b"\x03abc"

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from codec_defs import REPORT_GLOBAL_POSE, WAYPOINT_LIST
 
+from edge_vis.codec.bodies import compile_message, decode_body, encode_body
 from edge_vis.codec.compiler import PV_CACHE_LIMIT
-from edge_vis.codec.engine import compile_message, decode_body, encode_body
 from edge_vis.codec.types import message, opt, u8
 
 FULL_POSE = {

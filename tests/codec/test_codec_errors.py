@@ -25,7 +25,7 @@ from codec_defs import (
     WAYPOINT_LIST,
 )
 
-from edge_vis.codec.engine import compile_message, compile_type, decode_body, encode_body
+from edge_vis.codec.bodies import compile_message, compile_type, decode_body, encode_body
 from edge_vis.codec.types import List, MessageDef, Record, f, message, opt, u8, u16
 from edge_vis.errors import DecodeError, EncodeError
 

@@ -17,7 +17,7 @@ from codec_defs import ALL, catalogue_defs, ident
 from strategies import random_fields
 
 from edge_vis.codec import reference
-from edge_vis.codec.engine import decode_body, encode_body
+from edge_vis.codec.bodies import decode_body, encode_body
 from edge_vis.codec.types import MessageDef
 from edge_vis.errors import DecodeError
 

@@ -24,7 +24,7 @@ from codec_defs import (
     WAYPOINT_LIST,
 )
 
-from edge_vis.codec.engine import decode_body, encode_body
+from edge_vis.codec.bodies import decode_body, encode_body
 
 LAT_LSB = 180 / (2**32 - 1)
 LON_LSB = 360 / (2**32 - 1)

@@ -18,7 +18,7 @@ from strategies import fields_for
 
 from edge_vis.catalogue import default_catalogue
 from edge_vis.codec import reference
-from edge_vis.codec.engine import compile_message, decode_body, encode_body
+from edge_vis.codec.bodies import compile_message, decode_body, encode_body
 from edge_vis.codec.types import MessageDef
 
 QUICK = settings(

@@ -10,7 +10,7 @@ import math
 
 import pytest
 
-from edge_vis.codec.engine import compile_type, scaling
+from edge_vis.codec.bodies import compile_type, scaling
 from edge_vis.codec.types import Scaled, i16, i32, u8, u16, u32
 from edge_vis.errors import EncodeError
 

@@ -16,9 +16,8 @@ import time
 from collections.abc import Awaitable, Callable
 
 import pytest
-from edge_vis.tools.sim.profile import FaultSpec
 
-from edge_vis.shell.relay import losses
+from edge_vis.tools.sim.profile import FaultSpec
 
 from .conftest import FaultResult
 from .harness import Rig, until
@@ -46,7 +45,7 @@ def nothing_accepted_lost(rig: Rig, result: FaultResult) -> None:
     Events the wire lost are the wire's (shown as gaps), refused garbage is not a loss."""
     assert rig.runtime is not None
     totals = rig.runtime.totals()
-    lost = losses(totals)
+    lost = rig.runtime.losses()
     assert not lost, f"the relay lost what it had accepted: {lost}"
     gaps = totals.get("events missed", 0)
     result.checks.append("0 accepted lost" + (f" ({gaps} Event gaps on the wire)"

@@ -12,12 +12,12 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import pytest
-from edge_vis.tools.sim.actions import Restarted, Send
-from edge_vis.tools.sim.profile import FaultSpec, VehicleSpec
-from edge_vis.tools.sim.vehicle import SimVehicle
 
 from edge_vis.catalogue import Message, default_catalogue
 from edge_vis.jaus.address import JausAddress
+from edge_vis.tools.sim.outputs import Restarted, Send
+from edge_vis.tools.sim.profile import FaultSpec, VehicleSpec
+from edge_vis.tools.sim.subsystem import SimVehicle
 
 OCU = JausAddress(200, 1, 1)
 OTHER = JausAddress(201, 1, 1)

@@ -14,6 +14,7 @@ from edge_vis.catalogue import Catalogue
 from edge_vis.catalogue.jsidl import load_jsidl
 from edge_vis.config import TranslatorSelection, from_mapping
 from edge_vis.dds.convert import converter_for
+from edge_vis.dds.topics import TopicRegistry
 from edge_vis.engine.manager import TranslationManager
 from edge_vis.errors import ConfigError
 from edge_vis.kit import code_of, get_path
@@ -47,8 +48,10 @@ def test_profile_mapping_translates_a_user_message(catalogue: Catalogue) -> None
     assert (spec.query, spec.service, spec.rate) == ("QueryWaterQuality",
                                                      "urn:example:WaterQuality", 0.5)
     assert catalogue.decode(catalogue.encode(spec.query, spec.query_fields)).name == spec.query
-    (topic,) = tr.topic_types
-    assert topic.name == "WaterQuality" and topic.type is TYPES["GenericReport"]
+    registry = TopicRegistry.standard()
+    registry.register_all(tr.topic_types, owner=tr.name)
+    topic = registry.get("WaterQuality")
+    assert topic.type is TYPES["GenericReport"] and topic.owner == "generic"
 
     message = catalogue.decode(catalogue.encode("ReportWaterQuality",
                                                 {"turbidity": 12.5, "station": "pier 3"}))

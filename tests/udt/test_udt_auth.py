@@ -179,24 +179,24 @@ def test_readable_key_file_is_warned_about(tmp_path: Path, caplog) -> None:
 @pytest.mark.udt
 def test_only_the_key_holder_delivers_over_udt(tmp_path: Path, make_file) -> None:
     pytest.importorskip("udt4py")
-    from links.udt import UdtLink
+    from links.udt import UdtBulkChannel
 
     path, content = make_file(200_000, "atr-1.png")
-    fast = UdtLink.Backoff(initial=0.02, maximum=0.1, jitter=0.0)
-    with UdtLink.ImageService(tmp_path / "relay", keys={"uuv1": KEY}) as relay:
-        wrong = UdtLink.send_image(path, relay.address, vehicle_id="uuv1",
+    fast = UdtBulkChannel.Backoff(initial=0.02, maximum=0.1, jitter=0.0)
+    with UdtBulkChannel.ImageService(tmp_path / "relay", keys={"uuv1": KEY}) as relay:
+        wrong = UdtBulkChannel.send_image(path, relay.address, vehicle_id="uuv1",
                                    keys={"uuv1": OTHER}, backoff=fast, give_up_after=5)
         assert not wrong.ok and wrong.code is Reason.UNAUTHENTICATED
         assert "wrong key" in wrong.reason
-        missing = UdtLink.send_image(path, relay.address, vehicle_id="uuv1", backoff=fast,
+        missing = UdtBulkChannel.send_image(path, relay.address, vehicle_id="uuv1", backoff=fast,
                                      give_up_after=5)
         assert not missing.ok and missing.code is Reason.UNAUTHENTICATED
-        stranger = UdtLink.send_image(path, relay.address, vehicle_id="uuv9",
+        stranger = UdtBulkChannel.send_image(path, relay.address, vehicle_id="uuv9",
                                       keys={"uuv9": KEY}, backoff=fast, give_up_after=5)
         assert not stranger.ok and stranger.code is Reason.UNAUTHENTICATED
         assert not (tmp_path / "relay" / "uuv1").exists()
         assert relay.receiver.counters["unauthenticated"] >= 2
-        good = UdtLink.send_image(path, relay.address, vehicle_id="uuv1",
+        good = UdtBulkChannel.send_image(path, relay.address, vehicle_id="uuv1",
                                   keys={"uuv1": KEY}, backoff=fast, give_up_after=5)
         assert good.ok, good.reason
         assert (tmp_path / "relay" / "uuv1" / "atr-1.png").read_bytes() == content

@@ -17,7 +17,7 @@ pytest.importorskip("udt4py")
 from udt_helpers import sha, wait_for
 
 from edge_vis.cli.send_image import Progress, parse_rate
-from links.udt import UdtLink
+from links.udt import UdtBulkChannel
 
 pytestmark = pytest.mark.udt
 
@@ -28,7 +28,7 @@ def edge_vis(*args: str) -> list[str]:
 
 def test_send_image_exits_0_when_the_hash_is_confirmed(tmp_path: Path, make_file):
     path, content = make_file(3 << 20, "sonar.tif")
-    with UdtLink.ImageService(tmp_path / "ops") as ops:
+    with UdtBulkChannel.ImageService(tmp_path / "ops") as ops:
         host, port = ops.address
         proc = subprocess.run(
             edge_vis("send-image", str(path), "--to", f"{host}:{port}", "--vehicle", "uuv3",
@@ -47,7 +47,7 @@ def test_send_image_exits_0_when_the_hash_is_confirmed(tmp_path: Path, make_file
 
 def test_send_image_sends_a_batch_on_one_connection(tmp_path: Path, make_file):
     files = [make_file(200_000 + i, f"img{i}.png", seed=i) for i in range(3)]
-    with UdtLink.ImageService(tmp_path / "ops") as ops:
+    with UdtBulkChannel.ImageService(tmp_path / "ops") as ops:
         host, port = ops.address
         proc = subprocess.run(
             edge_vis("send-image", *(str(p) for p, _ in files), "--to", f"{host}:{port}"),
@@ -63,7 +63,7 @@ def test_send_image_sends_a_batch_on_one_connection(tmp_path: Path, make_file):
 
 def test_send_image_exits_1_with_the_receivers_reason(tmp_path: Path, make_file):
     path, _ = make_file(2 << 20)
-    with UdtLink.ImageService(tmp_path / "ops", quota_bytes=1 << 20) as ops:
+    with UdtBulkChannel.ImageService(tmp_path / "ops", quota_bytes=1 << 20) as ops:
         host, port = ops.address
         proc = subprocess.run(
             edge_vis("send-image", str(path), "--to", f"{host}:{port}"),
@@ -85,7 +85,7 @@ def test_send_image_rejects_bad_arguments_clearly(tmp_path: Path):
 def test_killed_sender_rerun_resumes_where_it_stopped(tmp_path: Path, make_file):
     """The sender dies without closing; a re-run takes over the stale connection and resumes."""
     path, content = make_file(6 << 20)
-    with UdtLink.ImageService(tmp_path / "ops") as ops:
+    with UdtBulkChannel.ImageService(tmp_path / "ops") as ops:
         host, port = ops.address
         args = edge_vis("send-image", str(path), "--to", f"{host}:{port}", "--vehicle",
                         "uuv1", "--max-rate", "16M")
@@ -148,7 +148,7 @@ def test_receive_images_publishes_the_image_on_dds(tmp_path: Path, make_file, mo
             data = bridge.reader("ImageData")
             # ImageData is volatile: be matched with the receiver's writer before it writes.
             wait_for(lambda: data._reader.get_matched_publications(), 10, "DDS discovery")
-            result = UdtLink.send_image(path, address, vehicle_id="uuv9")
+            result = UdtBulkChannel.send_image(path, address, vehicle_id="uuv9")
             assert result.ok
             (product,) = products.collect(1, 10.0)
             chunks = data.collect(3, 10.0)

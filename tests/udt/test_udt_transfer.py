@@ -19,7 +19,7 @@ pytest.importorskip("udt4py")
 from lossy_proxy import LossyProxy
 from udt_helpers import RawClient, free_udp_port, sha, wait_for
 
-from links.udt import UdtLink
+from links.udt import UdtBulkChannel
 from links.udt.protocol import (
     HEADER,
     FrameType,
@@ -31,10 +31,10 @@ from links.udt.protocol import (
 
 pytestmark = pytest.mark.udt
 
-FAST = UdtLink.Backoff(initial=0.02, maximum=0.2, jitter=0.0)
+FAST = UdtBulkChannel.Backoff(initial=0.02, maximum=0.2, jitter=0.0)
 
 
-def spool_entries(spool: UdtLink.Spool) -> list:
+def spool_entries(spool: UdtBulkChannel.Spool) -> list:
     """A consistent copy of the spool's entries while its threads change them."""
     with spool._lock:
         return list(spool._entries.values())
@@ -54,13 +54,14 @@ def manifest(content: bytes, name: str = "img.png", **over: object) -> Manifest:
 def test_20mb_vehicle_to_relay_to_operator(tmp_path: Path, make_file):
     path, content = make_file(20 << 20, "sonar_0001.png")
     published: list[tuple[str, dict]] = []
-    with UdtLink.ImageService(tmp_path / "ops") as ops, UdtLink.ImageService(
+    with UdtBulkChannel.ImageService(tmp_path / "ops") as ops, UdtBulkChannel.ImageService(
         tmp_path / "relay", forward=[ops.address],
         publish=lambda topic, sample: published.append((topic, sample)),
     ) as relay:
-        atr = UdtLink.AtrMetadata("mine-like", 0.91, UdtLink.Position(36.6, -121.9, 18.5))
-        m = UdtLink.manifest_for_file(path, vehicle_id="uuv1", atr=atr, capture_time=1.7e9)
-        result = UdtLink.send_image(path, relay.address, manifest=m)
+        atr = UdtBulkChannel.AtrMetadata(
+            "mine-like", 0.91, UdtBulkChannel.Position(36.6, -121.9, 18.5))
+        m = UdtBulkChannel.manifest_for_file(path, vehicle_id="uuv1", atr=atr, capture_time=1.7e9)
+        result = UdtBulkChannel.send_image(path, relay.address, manifest=m)
         assert result.ok, result.reason
         final = tmp_path / "ops" / "uuv1" / "sonar_0001.png"
         wait_for(lambda: relay.spool.reserved_bytes() == 0, 20, "the relay to forward")
@@ -84,7 +85,7 @@ def test_20mb_vehicle_to_relay_to_operator(tmp_path: Path, make_file):
 
 def test_transfer_interrupted_ten_times_completes(tmp_path: Path, make_file):
     path, content = make_file(6 << 20)
-    with UdtLink.ImageService(tmp_path / "ops") as ops:
+    with UdtBulkChannel.ImageService(tmp_path / "ops") as ops:
         drops = 0
         done = threading.Event()
 
@@ -100,7 +101,7 @@ def test_transfer_interrupted_ten_times_completes(tmp_path: Path, make_file):
 
         cutter = threading.Thread(target=cut_the_link)
         cutter.start()
-        result = UdtLink.send_image(path, ops.address, vehicle_id="uuv1",
+        result = UdtBulkChannel.send_image(path, ops.address, vehicle_id="uuv1",
                                     max_rate_bps=24_000_000, backoff=FAST, give_up_after=20)
         done.set()
         cutter.join()
@@ -130,9 +131,9 @@ def test_receiver_killed_mid_transfer_resumes_from_its_journal(tmp_path: Path, m
     out = tmp_path / "ops"
     proc = _receiver_process(out, port)
     results = []
-    sender = threading.Thread(target=lambda: results.append(UdtLink.send_image(
+    sender = threading.Thread(target=lambda: results.append(UdtBulkChannel.send_image(
         path, ("127.0.0.1", port), vehicle_id="uuv1", max_rate_bps=16_000_000,
-        backoff=UdtLink.Backoff(initial=0.1, maximum=0.3), give_up_after=20,
+        backoff=UdtBulkChannel.Backoff(initial=0.1, maximum=0.3), give_up_after=20,
         stall_timeout=1.5)))
     sender.start()
     part = out / ".spool" / "partial" / f"{transfer_id_for('uuv1', 'img.png', sha(content))}.part"
@@ -163,16 +164,16 @@ def test_receiver_killed_mid_transfer_resumes_from_its_journal(tmp_path: Path, m
 def test_forwarding_waits_for_a_target_that_is_down(tmp_path: Path, make_file):
     path, content = make_file(300_000)
     port = free_udp_port()
-    with UdtLink.ImageService(
+    with UdtBulkChannel.ImageService(
         tmp_path / "relay", forward=[("127.0.0.1", port)],
-        forward_backoff=UdtLink.Backoff(initial=0.1, maximum=0.3),
+        forward_backoff=UdtBulkChannel.Backoff(initial=0.1, maximum=0.3),
     ) as relay:
-        assert UdtLink.send_image(path, relay.address, vehicle_id="uuv1").ok
+        assert UdtBulkChannel.send_image(path, relay.address, vehicle_id="uuv1").ok
         time.sleep(1.0)  # the operator station is down: the file waits in the relay's spool
         queued = list(relay.spool.outbox(f"127.0.0.1:{port}"))
         assert [m.name for m, _ in queued] == ["img.png"]
         assert queued[0][1].read_bytes() == content
-        with UdtLink.ImageService(tmp_path / "ops", ("127.0.0.1", port)):
+        with UdtBulkChannel.ImageService(tmp_path / "ops", ("127.0.0.1", port)):
             final = tmp_path / "ops" / "uuv1" / "img.png"
             wait_for(final.exists, 10, "the forwarded file")
             wait_for(lambda: relay.spool.reserved_bytes() == 0, 5, "the relay to let go")
@@ -181,9 +182,9 @@ def test_forwarding_waits_for_a_target_that_is_down(tmp_path: Path, make_file):
 
 def test_rate_budget_is_respected(tmp_path: Path, make_file):
     path, content = make_file(1_500_000)
-    with UdtLink.ImageService(tmp_path / "ops") as ops:
+    with UdtBulkChannel.ImageService(tmp_path / "ops") as ops:
         started = time.monotonic()
-        result = UdtLink.send_image(path, ops.address, max_rate_bps=8_000_000)
+        result = UdtBulkChannel.send_image(path, ops.address, max_rate_bps=8_000_000)
         elapsed = time.monotonic() - started
     assert result.ok
     # 12 Mbit at 8 Mbit/s cannot take less than 1.5 s; allow for UDT's startup burst.
@@ -192,10 +193,10 @@ def test_rate_budget_is_respected(tmp_path: Path, make_file):
 
 def test_transfer_through_a_lossy_delaying_rate_limited_link(tmp_path: Path, make_file):
     path, content = make_file(400_000)
-    with UdtLink.ImageService(tmp_path / "ops") as ops, LossyProxy(
+    with UdtBulkChannel.ImageService(tmp_path / "ops") as ops, LossyProxy(
         ops.address, loss=0.02, delay=0.01, jitter=0.002, rate_bps=20e6, seed=11, lifetime=40,
     ) as proxy:
-        result = UdtLink.send_image(path, proxy.address, vehicle_id="uuv1", give_up_after=30)
+        result = UdtBulkChannel.send_image(path, proxy.address, vehicle_id="uuv1", give_up_after=30)
     assert result.ok, result.reason
     assert proxy.counters["up_lost"] + proxy.counters["down_lost"] > 0
     assert (tmp_path / "ops" / "uuv1" / "img.png").read_bytes() == content
@@ -203,12 +204,12 @@ def test_transfer_through_a_lossy_delaying_rate_limited_link(tmp_path: Path, mak
 
 def test_lanes_over_a_lossy_link_survive_a_drop_and_verify(tmp_path: Path, make_file):
     path, content = make_file(4 << 20)
-    with UdtLink.ImageService(tmp_path / "ops") as ops, LossyProxy(
+    with UdtBulkChannel.ImageService(tmp_path / "ops") as ops, LossyProxy(
         ops.address, loss=0.01, delay=0.005, rate_bps=16e6, queue_bytes=256 * 1024, seed=5,
         lifetime=40,
     ) as proxy:
         results = []
-        sender = threading.Thread(target=lambda: results.append(UdtLink.send_image(
+        sender = threading.Thread(target=lambda: results.append(UdtBulkChannel.send_image(
             path, proxy.address, vehicle_id="uuv1", lanes=4, backoff=FAST, give_up_after=20)))
         sender.start()
         wait_for(lambda: [e for e in spool_entries(ops.spool) if len(e.claims) == 4
@@ -227,12 +228,12 @@ def test_lanes_over_a_lossy_link_survive_a_drop_and_verify(tmp_path: Path, make_
 
 @pytest.fixture
 def receiver(tmp_path: Path):
-    with UdtLink.ImageService(tmp_path / "out", quota_bytes=1 << 20) as svc:
+    with UdtBulkChannel.ImageService(tmp_path / "out", quota_bytes=1 << 20) as svc:
         yield svc
         # Whatever happened before, the receiver still serves a good transfer ...
         good = tmp_path / "good.png"
         good.write_bytes(b"still serving" * 100)
-        assert UdtLink.send_image(good, svc.address, vehicle_id="uuv1").ok
+        assert UdtBulkChannel.send_image(good, svc.address, vehicle_id="uuv1").ok
         assert (tmp_path / "out" / "uuv1" / "good.png").exists()
     # ... and nothing was written outside the output directory.
     outside = {p.name for p in tmp_path.iterdir()} - {"out", "good.png", "vehicle"}
@@ -257,7 +258,7 @@ def test_data_beyond_the_manifest_size_is_refused(receiver, tmp_path: Path):
 def test_content_not_matching_the_manifest_hash_fails_the_receipt(receiver, make_file):
     path, content = make_file(200_000)
     lie = manifest(b"\x00" * len(content))  # right size, other content
-    result = UdtLink.send_image(path, receiver.address, manifest=lie)
+    result = UdtBulkChannel.send_image(path, receiver.address, manifest=lie)
     assert not result.ok
     assert result.code is Reason.HASH_MISMATCH
     assert "SHA-256 mismatch" in result.reason
@@ -291,7 +292,7 @@ def test_file_names_escaping_the_spool_are_refused(receiver, name: str):
 
 def test_transfer_bigger_than_the_quota_is_refused(receiver, make_file):
     path, _ = make_file(2 << 20)
-    result = UdtLink.send_image(path, receiver.address, vehicle_id="uuv1")
+    result = UdtBulkChannel.send_image(path, receiver.address, vehicle_id="uuv1")
     assert not result.ok and result.code is Reason.QUOTA
     assert "spool quota full: img.png needs 2.0 MiB" in result.reason
     assert list((receiver.spool.root / "partial").iterdir()) == []
@@ -308,7 +309,7 @@ def test_oversized_frame_header_is_refused_without_buffering(receiver):
 def test_sender_reports_a_receiver_that_never_answers(make_file):
     path, _ = make_file(1000)
     started = time.monotonic()
-    result = UdtLink.send_image(path, ("127.0.0.1", free_udp_port()), backoff=FAST,
+    result = UdtBulkChannel.send_image(path, ("127.0.0.1", free_udp_port()), backoff=FAST,
                                 give_up_after=1.0)
     assert not result.ok and result.code is Reason.TIMEOUT
     assert "no progress" in result.reason

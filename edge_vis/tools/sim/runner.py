@@ -5,7 +5,7 @@ one packet per datagram as the JAUS Toolset sends) or a pseudo-terminal speaking
 serial framing at the profile's baud rate. The endpoint does what a robot's node manager
 does: decodes packets, answers ACK requests, reassembles large data sets, numbers and
 fragments what it sends, learns where each client lives - and hands decoded messages to
-the sans-I/O :class:`~edge_vis.tools.sim.vehicle.SimVehicle`. Malformed frames requested by the
+the sans-I/O :class:`~edge_vis.tools.sim.subsystem.SimVehicle`. Malformed frames requested by the
 vehicle's fault profile are made here, because only the adapter knows the bytes.
 """
 
@@ -35,9 +35,9 @@ from edge_vis.jaus.transport import (
     pack_datagram,
     unpack_datagram,
 )
-from edge_vis.tools.sim.actions import Action, Restarted, Send
+from edge_vis.tools.sim.outputs import Action, Restarted, Send
 from edge_vis.tools.sim.profile import SimProfile, VehicleSpec
-from edge_vis.tools.sim.vehicle import SimVehicle
+from edge_vis.tools.sim.subsystem import SimVehicle
 
 log = logging.getLogger(__name__)
 
@@ -309,7 +309,7 @@ class UdpVehicle(VehicleEndpoint, asyncio.DatagramProtocol):
 
 
 def corrupt_datagram(data: bytes, how: str) -> bytes:
-    """``data`` with the defect ``how`` (see :data:`~edge_vis.tools.sim.vehicle.CORRUPTIONS`)."""
+    """``data`` with the defect ``how`` (see :data:`~edge_vis.tools.sim.subsystem.CORRUPTIONS`)."""
     if how == "truncated":
         return data[: max(3, len(data) // 2)]
     if how == "bad_size":

@@ -18,7 +18,9 @@ from pathlib import Path
 from typing import Any
 
 from links.udt import products
-from links.udt.link import (
+from links.udt.protocol import AtrMetadata, Backoff, Manifest, check_file_name, transfer_id_for
+from links.udt.spool import Spool
+from links.udt.transfer import (
     BulkReceiver,
     BulkSender,
     Forwarder,
@@ -26,8 +28,6 @@ from links.udt.link import (
     TransferResult,
     parse_address,
 )
-from links.udt.protocol import AtrMetadata, Backoff, Manifest, check_file_name, transfer_id_for
-from links.udt.spool import Spool
 
 log = logging.getLogger(__name__)
 

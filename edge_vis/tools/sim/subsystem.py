@@ -3,7 +3,7 @@
 :class:`SimVehicle` is one JAUS subsystem. The adapter feeds it every decoded message
 with :meth:`SimVehicle.receive` and wakes it at :meth:`SimVehicle.next_deadline` with
 :meth:`SimVehicle.on_timer`; both take ``now`` (seconds, any monotonic origin) and return
-:class:`~edge_vis.tools.sim.actions.Send` actions. Nothing here reads a clock, touches a socket
+:class:`~edge_vis.tools.sim.outputs.Send` actions. Nothing here reads a clock, touches a socket
 or draws from an unseeded random source, so a run is reproducible from its profile.
 
 Theory of operation
@@ -40,10 +40,10 @@ from edge_vis.errors import DecodeError, EncodeError
 from edge_vis.jaus.address import BROADCAST, JausAddress
 from edge_vis.tools.sim import components as svc
 from edge_vis.tools.sim import self_report
-from edge_vis.tools.sim.actions import Action, Restarted, Send
 from edge_vis.tools.sim.components import ComponentSpec
 from edge_vis.tools.sim.events import EVERY_CHANGE, PERIODIC, EventTable, Subscription
 from edge_vis.tools.sim.kinematics import Motion, clamp
+from edge_vis.tools.sim.outputs import Action, Restarted, Send
 from edge_vis.tools.sim.profile import VehicleSpec
 from edge_vis.tools.sim.sensors import Sensors
 from edge_vis.tools.sim.waypoints import SET_GLOBAL_WAYPOINT, WaypointList
