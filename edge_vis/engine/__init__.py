@@ -5,7 +5,7 @@ that share one :class:`~edge_vis.engine.state.EngineState`: ``finder`` (finding 
 and their service trees), ``liveness`` (lost and found), ``access`` (JAUS access control
 and management of commanded components), ``reports`` (events with polling fallback),
 ``commands`` (admission and sending), ``control_requests`` (operators), ``rates`` (the
-bandwidth plan), ``schedule`` (the timer pass and shutdown) and ``views`` (what
+bandwidth plan), ``timer_pass`` (deadlines and shutdown) and ``views`` (what
 translators and status displays see). The JAUS state machines they run are ``control``
 (one component's access control) and ``subscriptions`` (one report's event); beside them
 are ``discovery`` (parsing discovery reports), ``vehicle``, ``command_slots`` (throttling

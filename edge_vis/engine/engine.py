@@ -22,7 +22,7 @@ components (:mod:`~edge_vis.engine.access`), event subscriptions with polling fa
 (:mod:`~edge_vis.engine.reports`), command throttles and the dead-man
 (:mod:`~edge_vis.engine.commands`) and operator arbitration
 (:mod:`~edge_vis.engine.control_requests`). Report rates follow the bandwidth plan
-(:mod:`~edge_vis.engine.rates`); the timer pass is :mod:`~edge_vis.engine.schedule`; what
+(:mod:`~edge_vis.engine.rates`); the timer pass is :mod:`~edge_vis.engine.timer_pass`; what
 translators see is built by :mod:`~edge_vis.engine.views`. Those parts share one
 :class:`~edge_vis.engine.state.EngineState`; this class wires them together, routes each
 input to its part and routes translators' actions back.
@@ -52,8 +52,8 @@ from edge_vis.engine.liveness import LIVENESS, MANAGEMENT, STATUS_EVERY, Livenes
 from edge_vis.engine.manager import TranslationManager
 from edge_vis.engine.rates import Rates
 from edge_vis.engine.reports import Reports
-from edge_vis.engine.schedule import Scheduler
-from edge_vis.engine.state import EngineState, Handle, InnerCodec
+from edge_vis.engine.state import EngineState, Handler, InnerCodec
+from edge_vis.engine.timer_pass import TimerPass
 from edge_vis.engine.vehicle import Vehicle
 from edge_vis.engine.views import EngineSnapshot, SubscriptionView, VehicleSnapshot, Views
 from edge_vis.jaus.address import JausAddress
@@ -100,10 +100,10 @@ class Engine:
         self._finder = Finder(state, self._changed, self._liveness)
         self._commands = Commands(state, self._changed)
         self._control_requests = ControlRequests(state, self._access, self._changed)
-        self._scheduler = Scheduler(state, self._finder, self._liveness, self._access,
+        self._timer_pass = TimerPass(state, self._finder, self._liveness, self._access,
                                     self._reports, self._commands, self._rates)
         #: the JAUS messages the engine itself handles, by name
-        self._handlers: dict[str, Handle] = {
+        self._handlers: dict[str, Handler] = {
             "ReportServices": self._finder.on_services,
             "ReportConfiguration": self._finder.on_configuration,
             "ConfirmControl": self._access.on_confirm,
@@ -199,17 +199,17 @@ class Engine:
                 self._apply(self.manager.on_message(name, fields, ctx), now)
                 if source.subsystem in state.vehicles:
                     self._liveness.seen(state.vehicles[source.subsystem], now)
-                    self._scheduler.run(now)
+                    self._timer_pass.run(now)
                     return
             self._finder.probe_unknown(source, now)
-            self._scheduler.run(now)
+            self._timer_pass.run(now)
             return
         self._liveness.seen(vehicle, now)
         if name == "Event":
             self._reports.on_event(vehicle, source, fields, now)
         else:
             self._handle(vehicle, source, name, fields, now)
-        self._scheduler.run(now)
+        self._timer_pass.run(now)
 
     def receive_sample(self, topic: str, sample: Mapping[str, Any], now: float) -> None:
         """A DDS sample (as a dict) of ``topic`` arrived at ``now``."""
@@ -225,13 +225,13 @@ class Engine:
             vehicle = state.by_id.get(str(sample.get("vehicle_id", "")))
             ctx = self._views.context(vehicle, now)
             self._apply(self.manager.on_sample(topic, sample, ctx), now)
-        self._scheduler.run(now)
+        self._timer_pass.run(now)
 
     def on_timer(self, now: float) -> None:
         """The timer armed at :meth:`next_deadline` fired (early or late calls are fine)."""
         if not self._finder.started:
             self._finder.start(now)
-        self._scheduler.run(now)
+        self._timer_pass.run(now)
 
     def next_deadline(self) -> float | None:
         """When :meth:`on_timer` must next be called; None when nothing is scheduled."""
@@ -239,7 +239,7 @@ class Engine:
             return None
         if not self._finder.started:
             return 0.0
-        return self._scheduler.next_deadline()
+        return self._timer_pass.next_deadline()
 
     def drain_actions(self) -> list[Action]:
         """Everything the engine wants done since the last call, in order."""
@@ -255,7 +255,7 @@ class Engine:
         """
         if not self._finder.started:
             self._finder.start(now)
-        self._scheduler.shutdown(now)
+        self._timer_pass.shutdown(now)
 
     @property
     def is_shut_down(self) -> bool:

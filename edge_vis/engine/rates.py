@@ -76,11 +76,11 @@ class Rates:
                                           max(w.liveness_components for w in mates)))
         planner.plan(wants)
         for vehicle in state.vehicles.values():
-            link = links.get(vehicle.vehicle_id)
-            if link is None:
+            planned = links.get(vehicle.vehicle_id)
+            if planned is None:
                 continue
             for sub in vehicle.subscriptions.values():
-                rate = planner.rate(link, vehicle.vehicle_id, sub.report)
+                rate = planner.rate(planned, vehicle.vehicle_id, sub.report)
                 if rate is None:
                     continue
                 self._apply_rate(vehicle, sub, rate, now)

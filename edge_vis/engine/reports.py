@@ -137,7 +137,7 @@ class Reports:
         self._handle(vehicle, source, name, inner_fields, now)
 
     def _unwrap(self, fields: Mapping[str, Any]) -> tuple[str, Mapping[str, Any]] | None:
-        payload = fields.get("report_message")
+        payload: Any = fields.get("report_message")
         if hasattr(payload, "name"):
             name, inner = payload.name, payload.fields
         elif isinstance(payload, bytes | bytearray):

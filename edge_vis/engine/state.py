@@ -24,8 +24,10 @@ from edge_vis.kit.actions import Action, SendMessage
 
 #: tells translators that ``vehicle`` changed (``change`` names what) at ``now``
 Changed = Callable[[Vehicle, str, float], None]
-#: handles one (possibly unwrapped) JAUS message of a known vehicle
+#: handles one (possibly unwrapped) JAUS message ``name`` of a known vehicle
 Handle = Callable[[Vehicle, JausAddress, str, Mapping[str, Any], float], None]
+#: handles one JAUS message of a known vehicle whose name is implied (a handler table entry)
+Handler = Callable[[Vehicle, JausAddress, Mapping[str, Any], float], None]
 
 
 class InnerCodec(Protocol):

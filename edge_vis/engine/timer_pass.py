@@ -27,7 +27,7 @@ from edge_vis.engine.vehicle import Vehicle
 from edge_vis.kit.actions import ShutdownComplete
 
 
-class Scheduler:
+class TimerPass:
     """Runs the timer pass over the engine's parts and tracks the next deadline."""
 
     def __init__(self, state: EngineState, finder: Finder, liveness: Liveness,
@@ -148,8 +148,10 @@ class Scheduler:
         expired = self._shutdown_deadline is not None and now >= self._shutdown_deadline
         if pending == 0 or expired:
             timed_out = sum(
-                1 for v in state.vehicles.values()
-                for item in (*v.subscriptions.values(), *v.controls.values()) if item.unanswered
+                1 for v in state.vehicles.values() for s in v.subscriptions.values()
+                if s.unanswered
+            ) + sum(
+                1 for v in state.vehicles.values() for c in v.controls.values() if c.unanswered
             )
             state.done = True
             self._shutdown_deadline = None
