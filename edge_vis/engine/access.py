@@ -70,6 +70,8 @@ class Access:
 
     def poll(self, vehicle: Vehicle, now: float) -> None:
         """Renewals, retries and readiness attempts that are due."""
+        if not vehicle.controls:  # the usual case on the report path: nothing to do
+            return
         before = jaus_control(vehicle)
         for address, ctl in vehicle.controls.items():
             self._state.send_outgoing(address, ctl.poll(now))

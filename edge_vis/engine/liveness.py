@@ -61,14 +61,9 @@ class Liveness:
         self._reports.setup(vehicle, now)
         self._access.update(vehicle, now)
 
-    def lose_if_silent(self, vehicle: Vehicle, now: float) -> None:
-        """The timer pass: a vehicle silent for the silence timeout is lost."""
-        if (vehicle.online and vehicle.last_seen is not None
-                and now > vehicle.last_seen + self._state.profile.discovery.silence_timeout):
-            self.lose(vehicle, now)
-
     def lose(self, vehicle: Vehicle, now: float) -> None:
-        """``vehicle`` went silent: drop what it held; it is re-established when found."""
+        """``vehicle`` was silent for the silence timeout (the timer pass checks): drop what
+        it held; it is re-established when found."""
         state = self._state
         log.warning("vehicle %s lost: silent for %.1f s", vehicle.vehicle_id,
                     now - (vehicle.last_seen or now))

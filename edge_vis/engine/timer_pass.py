@@ -105,9 +105,12 @@ class TimerPass:
         self.run(now)
 
     def _visit(self, vehicle: Vehicle, now: float) -> None:
-        stopping = self._state.shutting_down
+        state = self._state
+        stopping = state.shutting_down
         if not stopping:
-            self._liveness.lose_if_silent(vehicle, now)
+            if (vehicle.online and vehicle.last_seen is not None
+                    and now > vehicle.last_seen + state.profile.discovery.silence_timeout):
+                self._liveness.lose(vehicle, now)
             if vehicle.next_services_query is not None and now >= vehicle.next_services_query:
                 self._finder.query_services(vehicle, now)
             if vehicle.next_liveness is not None and now >= vehicle.next_liveness:
