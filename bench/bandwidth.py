@@ -30,12 +30,12 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "bandwidth"))
 
-from edge_vis.tools.sim.profile import parse_profile
 from radiohub import RadioHub
 
 from edge_vis.catalogue import default_catalogue
 from edge_vis.config import from_mapping
 from edge_vis.shell.relay import Runtime
+from edge_vis.tools.sim.profile import parse_profile
 from edge_vis.tools.sim.runner import Simulation
 
 BAUD = 19200

@@ -13,7 +13,8 @@ edge-vis.
   (:data:`CONTRACTS`: a link class, a bulk channel, a translator, a tuple of message
   definitions), so a plugin in the wrong group is caught by ``edge-vis plugins --check``
   and at start-up, not later inside the relay. A missing name raises
-  :class:`~edge_vis.errors.PluginNotFoundError` listing the names that do exist; an
+  :class:`~edge_vis.errors.PluginNotFoundError` listing the names that do exist and the
+  one a typo most likely meant; an
   import that fails, or an object of the wrong kind, raises
   :class:`~edge_vis.errors.PluginLoadError` naming the plugin, chained to the cause.
 * :func:`register` adds a plugin from inside the process (tests, embedding); it is loaded
@@ -50,7 +51,11 @@ CONTRACTS: dict[str, str] = {
 #: Distribution shown for plugins added with :func:`register`.
 REGISTERED = "(registered)"
 
+#: said only when a group has no plugin at all: then the package metadata is missing
 _INSTALL_HINT = "is edge-vis installed (pip install -e .)?"
+#: what a plugin name is called in messages, by group
+_WHAT = {LINKS: "link scheme", BULK: "bulk channel", TRANSLATORS: "translator",
+         MESSAGES: "message set"}
 
 # group -> name -> an EntryPoint (lazy target) or the plugin object itself
 _registry: dict[str, dict[str, Any]] = {}
@@ -213,5 +218,30 @@ def _load_error(group: str, name: str, cause: BaseException | None, detail: str)
 
 def _not_found_message(group: str, name: str) -> str:
     names = sorted({*_installed(group), *_registry.get(group, {})})
-    have = ", ".join(names) if names else "none"
-    return f"no plugin {name!r} in {group} (installed: {have}); {_INSTALL_HINT}"
+    what = _WHAT.get(group, "plugin")
+    if not names:
+        return f"no {what} {name!r} in {group} (installed: none); {_INSTALL_HINT}"
+    message = f"no {what} {name!r} in {group} (installed: {', '.join(names)})"
+    close = [n for n in names if _typo_distance(name.lower(), n.lower()) <= _typo_limit(n)]
+    if close:
+        message += f"; did you mean {' or '.join(repr(n) for n in close)}?"
+    return message
+
+
+def _typo_limit(name: str) -> int:
+    """Edits a typo of ``name`` may have: one for short names, two from eight letters."""
+    return 1 if len(name) < 8 else 2
+
+
+def _typo_distance(a: str, b: str) -> int:
+    """Edits (insert, delete, replace, swap two neighbours) turning ``a`` into ``b``."""
+    prev2: list[int] = []
+    prev = list(range(len(b) + 1))
+    for i, ca in enumerate(a, 1):
+        row = [i] + [0] * len(b)
+        for j, cb in enumerate(b, 1):
+            row[j] = min(prev[j] + 1, row[j - 1] + 1, prev[j - 1] + (ca != cb))
+            if i > 1 and j > 1 and ca == b[j - 2] and a[i - 2] == cb:
+                row[j] = min(row[j], prev2[j - 2] + 1)
+        prev2, prev = prev, row
+    return prev[-1]

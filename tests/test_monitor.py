@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import subprocess
 import sys
@@ -47,6 +48,42 @@ def test_view_lists_vehicles_with_position_control_rates_links_and_images() -> N
     assert "uuv-b" in text and "image atr-1.png (72 KiB)" in text
     (radio,) = [line for line in text.splitlines() if line.startswith("radio")]
     assert "50.0%" in radio and radio.split()[-1] == "3"
+
+
+def test_rows_fit_an_80_column_screen_and_show_heading_and_units() -> None:
+    view = FleetView()
+    _fleet(view, 100.0)
+    view.row("ugv-a").controller = "operator-12345"
+    view.ingest("GlobalPose", {"vehicle_id": "ugv-a", "latitude": -36.6, "longitude": -121.9,
+                               "yaw": -math.pi / 2}, 105.0)  # facing west
+    view.ingest("LinkStatus", {"link": "lan", "up": True, "budget_bps": 0.0,
+                               "measured_bps": 96_200.0}, 105.0)
+    lines = view.render(105.0)
+    # curses draws width - 1 columns: every table row must fit 79
+    assert all(len(line) <= 79 for line in lines)
+    head = lines[0]
+    (alpha,) = [line for line in lines if line.startswith(" ugv-a")]
+    assert head.split()[:7] == ["VEHICLE", "TYPE", "STATE", "POSITION", "HDG", "M/S",
+                                "CONTROL"]
+    assert alpha[head.index("HDG"):head.index("HDG") + 3] == "270"  # degrees from north
+    assert "-36.60000,-121.90000" in alpha
+    link_head = next(line for line in lines if line.startswith("LINK"))
+    assert "USE kb/s" in link_head and "BUDGET kb/s" in link_head and "LOAD" in link_head
+    (lan,) = [line for line in lines if line.startswith("lan")]
+    assert lan.split()[2:5] == ["96.2", "unlimited", "-"]
+    (radio,) = [line for line in lines if line.startswith("radio")]
+    assert radio.split()[2:5] == ["4.8", "9.6", "50.0%"]
+
+
+def test_mission_line_names_the_waypoint_only_while_one_is_active() -> None:
+    view = FleetView()
+    view.ingest("MissionStatus", {"vehicle_id": "v", "state": "MISSION_EXECUTING",
+                                  "active_waypoint": 1}, 0.0)
+    assert any("mission executing wp 1" in line for line in view.render(0.0))
+    view.ingest("MissionStatus", {"vehicle_id": "v", "state": "MISSION_COMPLETED",
+                                  "active_waypoint": -1}, 1.0)
+    text = "\n".join(view.render(1.0))
+    assert "mission completed" in text and "wp -1" not in text
 
 
 def test_dropouts_and_recoveries_are_counted() -> None:

@@ -19,6 +19,8 @@ import pytest
 from edge_vis import plugins
 from edge_vis.cli import plugins as plugins_command
 from edge_vis.errors import PluginConflictError, PluginLoadError, PluginNotFoundError
+from edge_vis.routing.bulk import BulkChannel
+from edge_vis.routing.link import Link
 
 
 class Base:
@@ -31,6 +33,10 @@ class Good(Base):
 
 class Other:
     pass
+
+
+class GoodLink(Link):
+    """A link class, as the links group's contract wants."""
 
 
 @pytest.fixture(autouse=True)
@@ -80,13 +86,16 @@ def fake_links(site: Path) -> Path:
             plugins.LINKS: {
                 "fakeudp": "fakeplug_links:FakeUdp",
                 "fakebroken": "fakeplug_broken:Thing",
+                "fakens": "fakeplug_links:Namespace",
             },
             plugins.TRANSLATORS: {"fakeugv": "fakeplug_links:translator"},
         },
         {
             "fakeplug_links": (
+                "from edge_vis.routing.link import Link\n"
                 "IMPORTED = True\n"
-                "class FakeUdp:\n    scheme = 'fakeudp'\n"
+                "class FakeUdp(Link):\n    scheme = 'fakeudp'\n"
+                "class Namespace:\n    scheme = 'fakens'\n"
                 "translator = object()\n"
             ),
             "fakeplug_broken": "import fakeplug_no_such_dependency\nThing = 1\n",
@@ -112,14 +121,33 @@ def test_load_imports_lazily_and_returns_the_target(fake_links: Path) -> None:
     assert sys.modules["fakeplug_links"].IMPORTED is True
 
 
-def test_missing_name_lists_what_exists_and_how_to_fix(fake_links: Path) -> None:
+def test_missing_name_lists_what_exists_without_a_reinstall_hint(fake_links: Path) -> None:
     with pytest.raises(PluginNotFoundError) as info:
         plugins.load(plugins.LINKS, "carrier-pigeon")
     message = str(info.value)
-    assert "'carrier-pigeon'" in message
+    assert "link scheme 'carrier-pigeon'" in message
     assert "edge_vis.links" in message
     assert "fakeudp" in message and "fakebroken" in message
-    assert "pip install -e ." in message
+    # the scheme simply does not exist: reinstalling edge-vis would not help
+    assert "pip install" not in message and "did you mean" not in message
+
+
+@pytest.mark.parametrize(("typo", "meant"), [
+    ("udpp", "'udp'"), ("upd", "'udp'"), ("seral", "'serial'"), ("Serail", "'serial'"),
+    ("udq", "'udp'"),
+])
+def test_a_mistyped_link_scheme_names_the_likely_one(typo: str, meant: str) -> None:
+    with pytest.raises(PluginNotFoundError) as info:
+        plugins.load(plugins.LINKS, typo)
+    message = str(info.value)
+    assert f"did you mean {meant}?" in message
+    assert "installed: " in message and "serial" in message and "pip install" not in message
+
+
+def test_a_different_scheme_is_not_taken_for_a_typo() -> None:
+    with pytest.raises(PluginNotFoundError) as info:
+        plugins.load(plugins.LINKS, "tcp")
+    assert "did you mean" not in str(info.value)
 
 
 def test_missing_name_in_empty_group_says_none(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -159,8 +187,8 @@ def test_registered_string_target_is_imported_like_an_entry_point(fake_links: Pa
 
 
 def test_registered_plugin_overrides_an_installed_one(fake_links: Path) -> None:
-    plugins.register(plugins.LINKS, "fakeudp", Good)
-    assert plugins.load(plugins.LINKS, "fakeudp") is Good
+    plugins.register(plugins.LINKS, "fakeudp", GoodLink)
+    assert plugins.load(plugins.LINKS, "fakeudp") is GoodLink
 
 
 def test_expected_type_rejects_the_wrong_class_and_instance() -> None:
@@ -209,8 +237,38 @@ def test_cli_check_reports_the_broken_plugin(
     assert "edge_vis.translators" not in out
     fakeudp = next(line for line in out.splitlines() if "fakeudp" in line)
     broken = next(line for line in out.splitlines() if "fakebroken" in line)
+    namespace = next(line for line in out.splitlines() if "fakens" in line)
     assert fakeudp.rstrip().endswith("ok")
     assert "FAILED" in broken and "fakeplug_no_such_dependency" in broken
+    # a class that is not a Link (a namespace, as the bulk channel once was) is caught
+    assert "FAILED" in namespace and "class Namespace, not a Link" in namespace
+
+
+@pytest.mark.parametrize(
+    ("group", "wrong"),
+    [
+        (plugins.LINKS, "links.udt:UdtBulkChannel"),       # a bulk channel is not a link
+        (plugins.BULK, "links.udp:UdpLink"),               # nor a link a bulk channel
+        (plugins.TRANSLATORS, "links.udp:UdpLink"),
+        (plugins.MESSAGES, "translators.core:CoreTranslator"),
+    ],
+)
+def test_every_group_checks_its_contract(group: str, wrong: str) -> None:
+    plugins.register(group, "misplaced", wrong)
+    with pytest.raises(PluginLoadError, match=r"'misplaced'.*, not a "):
+        plugins.load(group, "misplaced")
+
+
+def test_a_bulk_channel_must_provide_what_the_relay_uses() -> None:
+    with pytest.raises(TypeError, match=r"lacks send_image, .*ImageService"):
+        type("HalfChannel", (BulkChannel,), {"scheme": "half"})
+
+
+def test_a_bulk_scheme_given_as_a_link_says_where_it_belongs() -> None:
+    from edge_vis.routing.link import create_link
+
+    with pytest.raises(PluginNotFoundError, match=r"udt:// is a bulk channel .*\[bulk\]"):
+        create_link("udt://127.0.0.1:9000")
 
 
 def test_installed_edge_vis_plugins_all_load() -> None:

@@ -94,9 +94,8 @@ def test_shipped_profiles_say_explicitly_that_anyone_may_command() -> None:
 def test_refused_operators_never_reach_the_vehicle(monkeypatch: pytest.MonkeyPatch,
                                                     caplog: pytest.LogCaptureFixture) -> None:
     dds = pytest.importorskip("edge_vis.dds")
-    from edge_vis.tools.sim.profile import VehicleSpec
-
     from edge_vis.shell.relay import Runtime
+    from edge_vis.tools.sim.profile import VehicleSpec
     from edge_vis.tools.sim.runner import UdpVehicle
 
     monkeypatch.setenv("CYCLONEDDS_URI", dds.loopback_config())

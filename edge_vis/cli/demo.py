@@ -2,12 +2,17 @@
 
 Starts three child processes on loopback - ``edge-vis sim`` with the fleet profile, the
 relay (``edge-vis run``) and ``edge-vis monitor`` - with Cyclone DDS kept on 127.0.0.1.
-Interactively the monitor owns the terminal; quitting it (``q``) or Ctrl-C stops
-everything. With ``--duration N`` nothing needs a person: the demo itself joins DDS as an
-operator, takes control of a ground vehicle, drives it, sends it a waypoint plan, and
+Addresses, pseudo-terminal paths and the DDS domain are chosen free
+(:mod:`edge_vis.tools.demo_place`), so several demos can run on one computer.
+
+On a terminal the monitor owns it; quitting it (``q``) or Ctrl-C stops everything.
+Without one (ssh without a tty, CI, output into a file) the monitor prints its table as
+text every ``--interval`` seconds until SIGINT or SIGTERM, which stop everything with
+exit status 0. With ``--duration N`` nothing needs a person: the demo itself joins DDS as
+an operator, takes control of a ground vehicle, drives it, sends it a waypoint plan, and
 after N seconds prints what DDS showed - vehicles seen, samples per topic, commands
 whose effect was observed, vehicles that dropped out and came back. Child logs go to
-``--log-dir``.
+``--log-dir``; when a child fails, the demo prints the line of its log that says why.
 """
 
 from __future__ import annotations
@@ -16,17 +21,29 @@ import argparse
 import contextlib
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
 import tempfile
 import threading
 import time
+import tomllib
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
 from edge_vis.errors import ConfigError
+from edge_vis.tools.demo_place import (
+    Placement,
+    dump_toml,
+    fleet_addresses,
+    move_fleet,
+    move_relay,
+    place,
+    relay_addresses,
+)
 from edge_vis.tools.monitor_view import (
     READ_TOPICS,
     WRITE_TOPICS,
@@ -35,7 +52,7 @@ from edge_vis.tools.monitor_view import (
     waypoint_plan,
     wrench_command,
 )
-from edge_vis.tools.sim.profile import SimProfile, load_profile
+from edge_vis.tools.sim.profile import SimProfile, load_profile, parse_profile
 
 NAME = "demo"
 HELP = "run the simulated fleet, the relay and the monitor together on this computer"
@@ -47,21 +64,28 @@ DEFAULT_RELAY_PROFILE = ROOT / "profiles" / "demo.toml"
 RELAY_BIND = "127.0.0.10:3794"
 DRIVER = "urn:jaus:jss:mobility:PrimitiveDriver"
 PLANNER = "urn:jaus:jss:mobility:GlobalWaypointListDriver"
+#: seconds between tables when stdout is not a terminal
+INTERVAL = 5.0
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--duration", type=float, metavar="S",
                         help="run unattended for S seconds, then print a summary")
-    parser.add_argument("--domain", type=int, default=0, help="DDS domain id (default 0)")
-    parser.add_argument("--fleet", type=Path, default=DEFAULT_FLEET, metavar="FILE",
+    parser.add_argument("--domain", type=int, default=None,
+                        help="DDS domain id (default: the lowest one nobody here uses)")
+    parser.add_argument("--fleet", type=Path, default=None, metavar="FILE",
                         help="simulation profile (default profiles/sim/fleet.toml)")
     parser.add_argument("--relay-profile", type=Path, metavar="FILE",
-                        help="relay profile (default: profiles/demo.toml with the shipped "
-                             "fleet when it exists, else links derived from the fleet)")
+                        help="relay profile, run as written with the fleet as written "
+                             "(default: profiles/demo.toml with the shipped fleet, else "
+                             "links derived from the fleet; both moved to free addresses)")
     parser.add_argument("--relay-address", default=RELAY_BIND, metavar="IP:PORT",
                         help=f"the relay's UDP address when links come from the fleet "
-                             f"(default {RELAY_BIND})")
-    parser.add_argument("--operator", default="demo-operator", metavar="ID",
+                             f"(default {RELAY_BIND}, or a free one like it)")
+    parser.add_argument("--interval", type=float, default=INTERVAL, metavar="S",
+                        help=f"without a terminal: seconds between tables (default "
+                             f"{INTERVAL:g})")
+    parser.add_argument("--operator", default="demo", metavar="ID",
                         help="operator id for commands")
     parser.add_argument("--authority", type=int, default=150, metavar="N",
                         help="authority for control requests (default 150)")
@@ -88,7 +112,11 @@ def relay_links(fleet: SimProfile, bind: str = RELAY_BIND) -> list[str]:
 
 
 class Children:
-    """The child processes, stopped in reverse order with SIGINT, then harder."""
+    """The child processes, stopped in reverse order with SIGTERM, then harder.
+
+    SIGTERM rather than SIGINT: a program started in the background by a script inherits
+    SIGINT ignored, and each child stops cleanly on SIGTERM.
+    """
 
     def __init__(self, log_dir: Path, env: dict[str, str]) -> None:
         self.log_dir = log_dir
@@ -122,7 +150,7 @@ class Children:
         for name, proc in reversed(self.procs):
             if proc.poll() is None:
                 with contextlib.suppress(ProcessLookupError):
-                    proc.send_signal(signal.SIGINT)
+                    proc.send_signal(signal.SIGTERM)
                 try:
                     proc.wait(timeout=10)
                 except subprocess.TimeoutExpired:
@@ -264,14 +292,139 @@ def _print_summary(summary: dict[str, Any], view: FleetView, log_dir: Path) -> N
     print(f"logs: {log_dir}")
 
 
+NEEDS_CHECKOUT = (
+    "edge-vis demo: the demo runs from a source checkout of edge-vis: it needs the "
+    "simulated fleet (profiles/sim/fleet.toml) and its relay profile (profiles/demo.toml), "
+    "which this installation does not have. Clone the repository and run "
+    "`bash scripts/demo.sh` there, or give --fleet FILE (and --relay-profile FILE) "
+    "with profiles of your own.")
+
+
+@dataclass
+class Setup:
+    """What the children are started with, after moving to free addresses."""
+
+    sim_profile: Path
+    fleet: SimProfile
+    relay_argv: list[str]
+    placement: Placement
+    notes: list[str] = field(default_factory=list)
+
+
+def _parse_address(text: str) -> tuple[str, int]:
+    host, sep, port = text.rpartition(":")
+    if not sep or not host or not port.isdigit():
+        raise ConfigError([("--relay-address", "", f"{text!r} is not IP:PORT")])
+    return host, int(port)
+
+
+def _read_toml(path: Path) -> dict[str, Any]:
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ConfigError([(str(path), "", f"cannot read: {exc.strerror or exc}")]) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError([(str(path), "", f"not valid TOML: {exc}")]) from None
+
+
+def prepare(args: argparse.Namespace, run_dir: Path) -> Setup:
+    """Choose free addresses, paths and domain; write moved profiles into ``run_dir``.
+
+    The fleet and the relay profile are used as written when their addresses are free
+    (or when ``--relay-profile`` names a profile: it fixes the addresses); otherwise
+    moved copies are written to ``run_dir`` and used instead.
+    """
+    fleet_path: Path = args.fleet or DEFAULT_FLEET
+    fleet = load_profile(fleet_path)
+    if args.relay_profile is not None:
+        placement = place([], args.domain, as_written=True)
+        return Setup(fleet_path, fleet, ["run", "--profile", str(args.relay_profile)],
+                     placement)
+    fleet_data = _read_toml(fleet_path)
+    shipped = (args.fleet is None or fleet_path.resolve() == DEFAULT_FLEET) \
+        and DEFAULT_RELAY_PROFILE.is_file()
+    relay_data = _read_toml(DEFAULT_RELAY_PROFILE) if shipped else None
+    relay_bind = _parse_address(args.relay_address)
+    relay_wanted = relay_addresses(relay_data) if relay_data is not None else [relay_bind]
+    placement = place(relay_wanted + fleet_addresses(fleet_data), args.domain)
+    setup = Setup(fleet_path, fleet, ["run"], placement)
+    paths: dict[str, str] = {}
+    if placement.moved:
+        moved, paths = move_fleet(fleet_data, placement, run_dir)
+        setup.sim_profile = run_dir / "fleet.toml"
+        setup.sim_profile.write_text(dump_toml(moved, header=(
+            f"{fleet_path} moved by edge-vis demo to free loopback addresses and to "
+            f"pseudo-terminal links in {run_dir}")), encoding="utf-8")
+        setup.fleet = parse_profile(moved, str(setup.sim_profile))
+        written = ", ".join("{}:{}".format(*a) for a in placement.addresses)
+        used = ", ".join("{}:{}".format(*a) for a in placement.addresses.values())
+        setup.notes.append(f"{written} are not all free (another demo running?); "
+                           f"this demo uses {used} instead")
+    if relay_data is None:
+        for url in relay_links(setup.fleet, "{}:{}".format(*placement.address(*relay_bind))):
+            setup.relay_argv += ["--link", url]
+    elif placement.moved:
+        relay_path = run_dir / "relay.toml"
+        relay_path.write_text(dump_toml(move_relay(relay_data, placement, paths), header=(
+            f"{DEFAULT_RELAY_PROFILE} with the links of the moved fleet "
+            f"({setup.sim_profile}), written by edge-vis demo")), encoding="utf-8")
+        setup.relay_argv += ["--profile", str(relay_path)]
+    else:
+        setup.relay_argv += ["--profile", str(DEFAULT_RELAY_PROFILE.relative_to(ROOT))
+                             if Path.cwd() == ROOT else str(DEFAULT_RELAY_PROFILE)]
+    setup.relay_argv += ["--domain", str(placement.domain)]
+    return setup
+
+
+def _cause(log: Path) -> str:
+    """The line of a child's log saying why it stopped: its last error, else its last line."""
+    try:
+        lines = [line.strip() for line in log.read_text(encoding="utf-8",
+                                                        errors="replace").splitlines()]
+    except OSError:
+        return "(no log)"
+    lines = [line for line in lines if line]
+    for line in reversed(lines):
+        if (line.startswith("edge-vis ") or " ERROR " in line or " CRITICAL " in line
+                or re.match(r"^[\w.]+(Error|Exception|Exit)\b", line)):
+            return line
+    return lines[-1] if lines else "(nothing in its log)"
+
+
+def _failed(name: str, log_dir: Path, what: str = "exited early") -> None:
+    log = log_dir / f"{name}.log"
+    print(f"edge-vis demo: the {name} {what}: {_cause(log)}\n  (log: {log})",
+          file=sys.stderr, flush=True)
+
+
+def _raise_interrupt(_signum: int, _frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def _watch(children: Children, monitor: subprocess.Popen[str]) -> str | None:
+    """Wait for the monitor to quit; the name of a child that failed instead, if any."""
+    while True:
+        try:
+            monitor.wait(timeout=0.5)
+        except subprocess.TimeoutExpired:
+            gone = children.check()
+            if gone is not None:
+                return gone
+            continue
+        return "monitor" if monitor.returncode != 0 else None
+
+
 def run(args: argparse.Namespace) -> int:
-    fleet = load_profile(args.fleet)
-    relay_profile = args.relay_profile
-    if (relay_profile is None and args.fleet.resolve() == DEFAULT_FLEET
-            and DEFAULT_RELAY_PROFILE.exists()):
-        relay_profile = DEFAULT_RELAY_PROFILE
+    if args.fleet is None and not DEFAULT_FLEET.is_file():
+        print(NEEDS_CHECKOUT, file=sys.stderr)
+        return 2
+    if args.interval <= 0:
+        print("edge-vis demo: --interval must be positive", file=sys.stderr)
+        return 2
     log_dir = args.log_dir or Path(tempfile.mkdtemp(prefix="edge-vis-demo-"))
     log_dir.mkdir(parents=True, exist_ok=True)
+    setup = prepare(args, log_dir)
+    domain = setup.placement.domain
     env = dict(os.environ)
     if "CYCLONEDDS_URI" not in env:
         from edge_vis.dds import loopback_config
@@ -279,55 +432,71 @@ def run(args: argparse.Namespace) -> int:
         env["CYCLONEDDS_URI"] = loopback_config()
         os.environ["CYCLONEDDS_URI"] = env["CYCLONEDDS_URI"]  # for this process's own view
     children = Children(log_dir, env)
-    relay_argv = ["run", "--domain", str(args.domain)]
-    if relay_profile is not None:
-        relay_argv += ["--profile", str(relay_profile)]
-    else:
-        for url in relay_links(fleet, args.relay_address):
-            relay_argv += ["--link", url]
     interrupted = False
+    failed: str | None = None
     operator: DemoOperator | None = None
     started = time.monotonic()
+    # SIGTERM stops like Ctrl-C, and so does SIGINT even when started with it ignored
+    previous = {sig: signal.signal(sig, _raise_interrupt)
+                for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        sim = children.start("sim", ["sim", "--profile", str(args.fleet)], stdout_pipe=True)
-        lines = _wait_for_sim(sim, len(fleet.vehicles), 15.0)
-        if len(lines) < len(fleet.vehicles):
-            print(f"edge-vis demo: the simulator did not start; see {log_dir / 'sim.log'}",
-                  file=sys.stderr)
+        for note in setup.notes:
+            print(f"demo: {note}", flush=True)
+        count = len(setup.fleet.vehicles)
+        sim = children.start("sim", ["sim", "--profile", str(setup.sim_profile)],
+                             stdout_pipe=True)
+        lines = _wait_for_sim(sim, count, 15.0)
+        if len(lines) < count:
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                sim.wait(timeout=5)
+            _failed("sim", log_dir, "did not start" if sim.poll() is not None
+                    else f"did not bring up its {count} vehicles within 15 s")
             return 1
         for line in lines:
             print(f"vehicle {line}")
-        children.start("relay", relay_argv)
-        print(f"relay: edge-vis {' '.join(relay_argv)}  (DDS domain {args.domain}, "
-              f"logs in {log_dir})", flush=True)
+        children.start("relay", setup.relay_argv)
+        print(f"relay: edge-vis {' '.join(setup.relay_argv)}  (logs in {log_dir})")
+        print(f"demo: DDS domain {domain}; another view: "
+              f"edge-vis monitor --loopback --domain {domain}", flush=True)
         if args.duration is None:
-            monitor = children.start("monitor", [
-                "monitor", "--domain", str(args.domain), "--operator", args.operator,
-                "--authority", str(args.authority)], foreground=True)
-            monitor.wait()
-            return 0
-        children.start("monitor", ["monitor", "--domain", str(args.domain), "--interval", "5",
-                                   "--wait", "2", "--duration", str(args.duration),
-                                   "--operator", args.operator])
-        deadline = started + args.duration
-        operator = DemoOperator(args.domain, args.operator, args.authority)
-        operator.script(deadline, lambda text: print(f"demo: {text}", flush=True))
-        while time.monotonic() < deadline:
-            operator.poll(min(1.0, max(0.0, deadline - time.monotonic())))
-            gone = children.check()
-            if gone is not None:
-                print(f"edge-vis demo: {gone} exited early; see {log_dir / (gone + '.log')}",
-                      file=sys.stderr)
-                break
+            argv = ["monitor", "--domain", str(domain), "--operator", args.operator,
+                    "--authority", str(args.authority)]
+            if not sys.stdout.isatty():  # no screen to draw on: tables until stopped
+                argv += ["--interval", f"{args.interval:g}"]
+            failed = _watch(children, children.start("monitor", argv, foreground=True))
+        else:
+            children.start("monitor", ["monitor", "--domain", str(domain), "--interval", "5",
+                                       "--wait", "2", "--duration", str(args.duration),
+                                       "--operator", args.operator])
+            deadline = started + args.duration
+            operator = DemoOperator(domain, args.operator, args.authority)
+            operator.script(deadline, lambda text: print(f"demo: {text}", flush=True))
+            while time.monotonic() < deadline:
+                operator.poll(min(1.0, max(0.0, deadline - time.monotonic())))
+                failed = children.check()
+                if failed is not None:
+                    break
     except KeyboardInterrupt:
         interrupted = True
     finally:
-        if operator is not None:
-            operator.release()
-            operator.poll(0.3)
-        codes = children.stop()
+        for sig in previous:  # a second signal must not cut the clean-up short
+            signal.signal(sig, signal.SIG_IGN)
+        try:
+            if operator is not None:
+                operator.release()
+                operator.poll(0.3)
+            codes = children.stop()
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+            setup.placement.release()
+    if failed is not None:
+        _failed(failed, log_dir)
     if operator is None:
-        return 130 if interrupted else 0
+        if failed is not None:
+            return 1
+        # without --duration the demo runs until stopped: a signal is the normal end
+        return 130 if interrupted and args.duration is not None else 0
     summary = operator.summary(time.monotonic() - started)
     summary["exit_codes"] = codes
     if args.json:

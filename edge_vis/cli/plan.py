@@ -5,7 +5,8 @@ each report costs on the link, the planned load against the budget and why each 
 what it is. Vehicles come from the profile; ``--vehicles N`` assumes N vehicles like the
 profile's (or N anonymous ones on the first planned link). A vehicle's reports are those
 its static services offer, else the reports the profiles give rates for, else every
-periodic report of the enabled translators. Exits 1 when a report had to be dropped.
+periodic report of the enabled translators. A link no vehicle is planned on gets a note
+on stderr saying how to plan one. Exits 1 when a report had to be dropped.
 """
 
 from __future__ import annotations
@@ -100,4 +101,18 @@ def run(args: argparse.Namespace) -> int:
                  if v.vehicle_id not in {w.vehicle_id for w in wants}]
     if unplanned:
         print(f"not planned (no link profile on their link): {', '.join(unplanned)}")
+    empty = [link for link in specs if not any(w.link == link for w in wants)]
+    if empty:
+        sys.stdout.flush()
+        print(_empty_note(args, relay, empty), file=sys.stderr)
     return 1 if dropped else 0
+
+
+def _empty_note(args: argparse.Namespace, relay: RelayProfile, links: list[str]) -> str:
+    """Why a link's plan is empty, and how to get one."""
+    which = ", ".join(links)
+    if args.vehicles is not None or relay.vehicles:
+        return (f"note: no vehicle on link {which}: vehicles found at run time are planned "
+                f"then; put one on it with [[vehicles]] link = \"{links[0]}\" in the profile")
+    return (f"note: nothing planned on link {which}: the profile lists no vehicles "
+            f"([[vehicles]]); plan for some with: edge-vis plan {args.profile} --vehicles N")

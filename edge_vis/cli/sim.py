@@ -2,8 +2,8 @@
 
 Every vehicle of the profile comes up on its own loopback address or serial
 pseudo-terminal and behaves like a JAUS robot until SIGINT/SIGTERM. One line per vehicle
-is printed when it is on the air (for scripts: ``NAME KIND SUBSYSTEM WHERE``); what the
-vehicles do is logged on stderr.
+is printed on stdout when it is on the air (for scripts: ``NAME KIND SUBSYSTEM WHERE``);
+what the vehicles do, and any error, goes to stderr, so stdout carries only those lines.
 """
 
 from __future__ import annotations
@@ -11,12 +11,14 @@ from __future__ import annotations
 import argparse
 import asyncio
 import contextlib
+import errno
 import logging
 import signal
+import sys
 from pathlib import Path
 
 from edge_vis.tools.sim.profile import load_profile
-from edge_vis.tools.sim.runner import PtyVehicle, Simulation, UdpVehicle
+from edge_vis.tools.sim.runner import Simulation
 
 log = logging.getLogger(__name__)
 
@@ -40,7 +42,7 @@ async def _main(args: argparse.Namespace) -> int:
         if unknown:
             names = ", ".join(v.name for v in profile.vehicles)
             print(f"edge-vis sim: no vehicle {', '.join(sorted(unknown))} in {args.profile} "
-                  f"(it has {names})")
+                  f"(it has {names})", file=sys.stderr)
             return 2
         profile = type(profile)(tuple(v for v in profile.vehicles if v.name in args.only),
                                 profile.source)
@@ -52,18 +54,14 @@ async def _main(args: argparse.Namespace) -> int:
     try:
         await sim.start()
     except OSError as exc:
-        print(f"edge-vis sim: cannot open a vehicle's link: {exc}")
+        hint = ""
+        if exc.errno == errno.EADDRINUSE:
+            hint = " (another program holds it: a simulator or demo already running?)"
+        print(f"edge-vis sim: {exc}{hint}", file=sys.stderr)
         return 2
     try:
         for ep in sim.endpoints:
-            if isinstance(ep, UdpVehicle):
-                where = "udp://{}:{}".format(*ep.address)
-            else:
-                assert isinstance(ep, PtyVehicle)
-                where = f"serial://{ep.slave_path}"
-                if ep.spec.pty_link:
-                    where += f" (link {ep.spec.pty_link})"
-            print(f"{ep.name} {ep.spec.kind} {ep.spec.subsystem} {where}", flush=True)
+            print(f"{ep.name} {ep.spec.kind} {ep.spec.subsystem} {ep.where}", flush=True)
         with contextlib.suppress(TimeoutError):
             async with asyncio.timeout(args.duration):
                 await stop.wait()

@@ -16,12 +16,22 @@ real robots send:
 
 Decoded nested records may be flattened or kept as sub-dicts depending on the message
 definition; :func:`pick` finds a field either way.
+
+Peers also read the wildcards differently: JAUS++ looks node and component 255 of a
+QueryServices up literally and answers with an empty list. :class:`ServiceDiscovery`
+therefore never takes an empty or partial answer as the truth while the configuration
+names components: it asks again by explicit IDs, a bounded number of times.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
-from typing import Any
+import logging
+from collections import Counter
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+log = logging.getLogger(__name__)
 
 CORE = "urn:jaus:jss:core:"
 MOBILITY = "urn:jaus:jss:mobility:"
@@ -144,3 +154,260 @@ def components_from_configuration(fields: Mapping[str, Any]) -> list[tuple[int, 
     return found
 
 
+# == asking: which discovery queries to send, and when ======================================
+
+#: Node or component ID 255 in a QueryServices: "all" (JSIDL); JAUS++ reads it literally.
+WILDCARD = 255
+#: Rounds spaced by the response timeout; later ones by the discovery period.
+FAST_ROUNDS = 3
+#: QueryServices sent to one subsystem before giving up until it is found again: a robot
+#: that never answers must not cost its link forever.
+MAX_ASKS = 8
+
+Component = tuple[int, int]
+Query = tuple[str, dict[str, Any]]
+
+
+class Timing(Protocol):
+    """What :class:`ServiceDiscovery` needs of the profile's discovery section."""
+
+    @property
+    def response_timeout(self) -> float: ...
+
+    @property
+    def period(self) -> float: ...
+
+
+def query_services_fields(nodes: Mapping[int, Sequence[int]]) -> dict[str, Any]:
+    """QueryServices fields asking for ``{node: [component, ...]}`` (255 = all)."""
+    return {
+        "node_list": [
+            {"node_rec": {"node_id": node},
+             "component_list": [{"component_id": c} for c in comps]}
+            for node, comps in nodes.items()
+        ]
+    }
+
+
+def _by_node(components: Iterable[Component]) -> dict[int, list[int]]:
+    nodes: dict[int, list[int]] = {}
+    for node, comp in components:
+        comps = nodes.setdefault(node, [])
+        if comp not in comps:
+            comps.append(comp)
+    return nodes
+
+
+def _ids(components: Iterable[Component]) -> str:
+    return ", ".join(f"{n}.{c}" for n, c in components) or "none"
+
+
+@dataclass
+class ServiceDiscovery:
+    """How far finding one subsystem's components and services got. No I/O; time is passed in.
+
+    Asks QueryConfiguration(2) and QueryServices for all nodes and components (255) first,
+    as the JSIDL allows. An answer is not taken at its word when it contradicts what else is
+    known: an empty ReportServices, or one without a component ReportConfiguration lists,
+    makes it ask those components by explicit ID at once and on every later round; an empty
+    ReportConfiguration makes it ask the node (QueryConfiguration(3)); a nameless
+    ReportIdentification makes it ask the component directly (type 2, then type 4). A
+    component that a non-empty answer to an explicit query leaves out has nothing to
+    report (a legacy component). Rounds stop when every listed component has answered, or
+    after :data:`MAX_ASKS` QueryServices. ``counters`` (the engine's) counts queries sent,
+    empty answers, fallbacks and give-ups.
+    """
+
+    #: the vehicle, for log messages
+    label: str = ""
+    #: components ReportConfiguration listed, in order
+    configuration: list[Component] = field(default_factory=list)
+    configuration_known: bool = False
+    #: components a ReportServices listed (with or without services)
+    answered: set[Component] = field(default_factory=set)
+    #: left out of a non-empty answer to an explicit query: nothing to report
+    settled: set[Component] = field(default_factory=set)
+    #: the components of the last explicit QueryServices (empty after a wildcard one)
+    asked: tuple[Component, ...] = ()
+    #: a wildcard answer came back empty or incomplete: ask by ID from now on
+    explicit: bool = False
+    #: some ReportIdentification gave a name
+    named: bool = False
+    asks: int = 0
+    config_asks: int = 0
+    ident_asks: int = 0
+    #: services came from a static profile: never ask
+    stopped: bool = False
+    #: when the next round is due (None: nothing scheduled)
+    next_at: float | None = None
+
+    @property
+    def known(self) -> bool:
+        """True once some component's services are known: the vehicle can be served."""
+        return bool(self.answered)
+
+    @property
+    def pending(self) -> list[Component]:
+        """Components ReportConfiguration listed whose services are still unknown.
+
+        Without a configuration nothing contradicts an answer: any non-empty one is taken
+        as complete (the JTS example never answers QueryConfiguration).
+        """
+        if not self.configuration_known:
+            return []
+        return [c for c in self.configuration
+                if c not in self.answered and c not in self.settled]
+
+    def start(self, now: float) -> float | None:
+        """Schedule the first round at ``now`` unless one ran already; the next due time."""
+        if not self.stopped and self.asks == 0 and self.next_at is None:
+            self.next_at = now
+        return self.next_at
+
+    def stop(self) -> None:
+        """The services are known from elsewhere (a static profile): ask nothing more."""
+        self.stopped = True
+        self.next_at = None
+
+    def restart(self, now: float) -> float | None:
+        """Ask again from the first round (the vehicle came back after a give-up)."""
+        if self.stopped or self.known or self.next_at is not None:
+            return self.next_at
+        self.asks = self.config_asks = self.ident_asks = 0
+        self.next_at = now
+        return now
+
+    # -- rounds --------------------------------------------------------------------------
+
+    def next_round(self, target: Component, now: float, timing: Timing,
+                   counters: Counter[str]) -> list[Query]:
+        """The queries due at ``now`` for the subsystem whose discovery answered at ``target``."""
+        self.next_at = None
+        if self.stopped or (self.known and not self.pending):
+            return []
+        if self.asks >= MAX_ASKS:
+            counters["discovery_gave_up"] += 1
+            missing = self.pending or [target]
+            if self.known:
+                log.info("vehicle %s: no services reported for %s after %d queries; serving "
+                         "what is known", self.label, _ids(missing), self.asks)
+            else:
+                log.warning("vehicle %s: no services reported after %d queries (asked %s); "
+                            "asking again when it is found again", self.label, self.asks,
+                            _ids(missing))
+            return []
+        queries: list[Query] = []
+        if not self.configuration_known:
+            self.config_asks += 1
+            queries.append(self._configuration_query(counters, self.config_asks % 2 == 0))
+        if not self.named:
+            self.ident_asks += 1
+            query_type = 2 if self.ident_asks % 2 == 1 else 4
+            queries.append(self._query("QueryIdentification", {"query_type": query_type},
+                                       counters, fallback=True,
+                                       why="no name from the subsystem yet"))
+        wildcard = not self.explicit and self.asks % 2 == 0
+        queries.append(self._services_query(target, wildcard, counters,
+                                            why="no answer to the last one"))
+        self.next_at = now + (timing.response_timeout if self.asks <= FAST_ROUNDS
+                              else timing.period)
+        return queries
+
+    # -- answers -------------------------------------------------------------------------
+
+    def on_services(self, report: Mapping[Component, Sequence[Service]], target: Component,
+                    now: float, timing: Timing, counters: Counter[str]) -> list[Query]:
+        """A ReportServices (``services_from_report``) arrived; queries to send at once."""
+        if not report:
+            counters["discovery_empty_answers"] += 1
+            log.debug("vehicle %s: ReportServices lists no component", self.label)
+        else:
+            if self.asked:  # left out of an answer to an explicit query: nothing to report
+                self.settled.update(c for c in self.asked if c not in report)
+            self.answered.update(report)
+            log.debug("vehicle %s: ReportServices for %s", self.label, _ids(report))
+        return self._follow_up(target, now, timing, counters, empty=not report)
+
+    def on_configuration(self, components: Sequence[Component], target: Component,
+                         now: float, timing: Timing, counters: Counter[str]) -> list[Query]:
+        """A ReportConfiguration arrived; queries to send at once."""
+        queries: list[Query] = []
+        if not components:
+            counters["discovery_empty_answers"] += 1
+            log.debug("vehicle %s: ReportConfiguration lists no component", self.label)
+            if not self.configuration_known and not self.stopped and self.config_asks % 2:
+                # a subsystem-wide answer came back empty: ask the node itself
+                self.config_asks += 1
+                queries.append(self._configuration_query(counters, True))
+            return queries
+        self.configuration += [c for c in components if c not in self.configuration]
+        self.configuration_known = True
+        log.debug("vehicle %s: ReportConfiguration lists %s", self.label, _ids(components))
+        return self._follow_up(target, now, timing, counters, empty=False)
+
+    def on_identification(self, name: str, counters: Counter[str]) -> None:
+        """A ReportIdentification of this subsystem arrived (any query type)."""
+        if name:
+            self.named = True
+        else:
+            counters["discovery_empty_answers"] += 1
+            log.debug("vehicle %s: ReportIdentification without a name", self.label)
+
+    # -- helpers -------------------------------------------------------------------------
+
+    def _follow_up(self, target: Component, now: float, timing: Timing,
+                   counters: Counter[str], *, empty: bool) -> list[Query]:
+        """Ask by ID at once when a wildcard answer was empty or left components out."""
+        if self.stopped:
+            return []
+        pending = self.pending
+        if self.known and not pending:
+            if self.next_at is not None:
+                log.debug("vehicle %s: services of every listed component known", self.label)
+            self.next_at = None
+            return []
+        wanted = pending or ([target] if empty and not self.configuration_known else [])
+        if not wanted or not (empty or self.known or self.explicit):
+            return []  # nothing contradicts the wildcard yet: the round timer asks again
+        if all(c in self.asked for c in wanted) or self.asks >= MAX_ASKS:
+            return []  # asked by ID already: the round timer asks again
+        self.explicit = True
+        why = ("the answer was empty" if empty
+               else f"the answers left out {_ids(pending)}")
+        query = self._services_query(target, False, counters, why=why)
+        self.next_at = now + timing.response_timeout
+        return [query]
+
+    def _services_query(self, target: Component, wildcard: bool, counters: Counter[str],
+                        *, why: str) -> Query:
+        self.asks += 1
+        if wildcard:
+            self.asked = ()
+            return self._query("QueryServices",
+                               query_services_fields({WILDCARD: [WILDCARD]}), counters,
+                               fallback=False, why="")
+        pending = self.pending
+        first = [target] if target in pending or not self.configuration_known else []
+        ids = list(dict.fromkeys([*first, *pending])) or [target]
+        self.asked = tuple(ids)
+        return self._query("QueryServices", query_services_fields(_by_node(ids)), counters,
+                           fallback=True, why=why, ids=ids)
+
+    def _configuration_query(self, counters: Counter[str], node: bool) -> Query:
+        if node:
+            return self._query("QueryConfiguration", {"query_type": 3}, counters,
+                               fallback=True, why="no configuration of the subsystem")
+        return self._query("QueryConfiguration", {"query_type": 2}, counters,
+                           fallback=False, why="")
+
+    def _query(self, name: str, fields: dict[str, Any], counters: Counter[str], *,
+               fallback: bool, why: str, ids: Sequence[Component] = ()) -> Query:
+        counters["discovery_queries_sent"] += 1
+        if fallback:
+            counters["discovery_fallbacks"] += 1
+            log.debug("vehicle %s: %s %s (%s)", self.label, name,
+                      f"for {_ids(ids)}" if ids else fields, why)
+        else:
+            log.debug("vehicle %s: %s %s", self.label, name,
+                      "for all nodes and components" if name == "QueryServices" else fields)
+        return name, fields

@@ -47,7 +47,7 @@ from edge_vis.config import RelayProfile
 from edge_vis.engine.access import Access
 from edge_vis.engine.commands import Commands
 from edge_vis.engine.control_requests import ControlRequests
-from edge_vis.engine.finder import Finder, query_services_fields
+from edge_vis.engine.finder import Finder
 from edge_vis.engine.liveness import LIVENESS, MANAGEMENT, STATUS_EVERY, Liveness
 from edge_vis.engine.manager import TranslationManager
 from edge_vis.engine.rates import Rates
@@ -62,7 +62,7 @@ from edge_vis.kit.contract import Translator
 
 __all__ = [
     "LIVENESS", "MANAGEMENT", "STATUS_EVERY", "Engine", "EngineSnapshot", "InnerCodec",
-    "SubscriptionView", "VehicleSnapshot", "query_services_fields",
+    "SubscriptionView", "VehicleSnapshot",
 ]
 
 

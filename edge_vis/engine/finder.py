@@ -1,13 +1,14 @@
 """Finding vehicles: identification, the service tree, the vehicle table. No I/O.
 
 The relay broadcasts QueryIdentification(2) every discovery period; a subsystem that
-answers becomes a vehicle, and is then asked QueryConfiguration(2) and QueryServices until
-its service tree is known (alternating the wildcard form with explicit IDs, which some
-implementations need). A message from a subsystem not yet identified gets a rate-limited
-QueryIdentification of its own. Vehicles may also be declared without discovery: static
-ones from the profile at start, and custom ones by a translator (DeclareVehicle).
-Parsing the reports is :mod:`edge_vis.engine.discovery`'s job; this module keeps the
-table and decides what to ask next.
+answers becomes a vehicle, and is then asked QueryConfiguration and QueryServices until
+its service tree is known. Which queries a round sends, and whether an answer is taken
+as complete (JAUS++ answers the wildcard QueryServices with an empty list), is the
+vehicle's :class:`~edge_vis.engine.discovery.ServiceDiscovery`'s decision; this module
+feeds it the answers and sends what it asks for. A message from a subsystem not yet
+identified gets a rate-limited QueryIdentification of its own. Vehicles may also be
+declared without discovery: static ones from the profile at start, and custom ones by a
+translator (DeclareVehicle). This module keeps the vehicle table.
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ from typing import Any
 
 from edge_vis.engine.discovery import (
     IDENTIFICATION_TYPES,
+    Component,
+    Query,
     components_from_configuration,
     services_from_report,
 )
@@ -30,15 +33,8 @@ from edge_vis.kit.contract import derive_vehicle_id
 log = logging.getLogger(__name__)
 
 
-def query_services_fields(nodes: Mapping[int, Sequence[int]]) -> dict[str, Any]:
-    """QueryServices fields asking for ``{node: [component, ...]}`` (255 = all)."""
-    return {
-        "node_list": [
-            {"node_rec": {"node_id": node},
-             "component_list": [{"component_id": c} for c in comps]}
-            for node, comps in nodes.items()
-        ]
-    }
+def _component(address: JausAddress) -> Component:
+    return address.node, address.component
 
 
 class Finder:
@@ -97,6 +93,7 @@ class Finder:
         for address, services in components.items():
             vehicle.set_services(address, list(services))
         vehicle.services_known = True
+        vehicle.discovery.stop()
         vehicle.next_services_query = None
         if (vehicle.name, vehicle.vehicle_type, vehicle.address, vehicle.components) != before:
             self._changed(vehicle, "identified", now)
@@ -147,11 +144,15 @@ class Finder:
             kind = IDENTIFICATION_TYPES.get(int(fields.get("type", 0) or 0), "")
             if kind and not (vehicle.profile is not None and vehicle.profile.vehicle_type):
                 vehicle.vehicle_type = kind
+        elif ident and not vehicle.name:  # a node or component name beats none
+            vehicle.name = ident
+            changed = True
+        vehicle.discovery.on_identification(ident, state.counters)
         if vehicle.address is None:
             vehicle.address = source
             changed = True
         if not vehicle.services_known and vehicle.next_services_query is None:
-            vehicle.next_services_query = now
+            vehicle.next_services_query = vehicle.discovery.start(now)
         if changed:
             self._changed(vehicle, "identified", now)
         return vehicle
@@ -175,42 +176,46 @@ class Finder:
             state.send(source, "QueryIdentification", {"query_type": 2})
 
     def query_services(self, vehicle: Vehicle, now: float) -> None:
-        """Ask for the configuration and services (due at ``next_services_query``)."""
-        target = vehicle.address
-        if target is None:
+        """A discovery round is due (see :class:`~edge_vis.engine.discovery.ServiceDiscovery`)."""
+        if vehicle.address is None:
             vehicle.next_services_query = None
             return
-        vehicle.services_attempts += 1
-        self._state.send(target, "QueryConfiguration", {"query_type": 2})
-        if vehicle.services_attempts % 2 == 1:
-            nodes: dict[int, list[int]] = {255: [255]}
-        else:  # some implementations answer only explicit IDs
-            nodes = {}
-            for addr in [target, *vehicle.configuration]:
-                nodes.setdefault(addr.node, [])
-                if addr.component not in nodes[addr.node]:
-                    nodes[addr.node].append(addr.component)
-        self._state.send(target, "QueryServices", query_services_fields(nodes))
-        disc = self._state.profile.discovery
-        wait = disc.response_timeout if vehicle.services_attempts < 4 else disc.period
-        vehicle.next_services_query = now + wait
+        state = self._state
+        self._discovery_sends(vehicle, vehicle.discovery.next_round(
+            _component(vehicle.address), now, state.profile.discovery, state.counters))
+
+    def _discovery_sends(self, vehicle: Vehicle, queries: Sequence[Query]) -> None:
+        """Send discovery's queries to the component that identified the vehicle."""
+        if vehicle.address is not None:
+            for name, fields in queries:
+                self._state.send(vehicle.address, name, fields)
+        vehicle.next_services_query = vehicle.discovery.next_at
 
     def on_services(self, vehicle: Vehicle, source: JausAddress, fields: Mapping[str, Any],
                     now: float) -> None:
         """ReportServices: record the tree; subscribe and take control as needed."""
+        state = self._state
         changed = False
-        for (node, comp), services in services_from_report(fields).items():
+        report = services_from_report(fields)
+        for (node, comp), services in report.items():
             address = JausAddress(vehicle.subsystem, node, comp)
             changed |= vehicle.set_services(address, services)
-        first = not vehicle.services_known
-        vehicle.services_known = True
-        vehicle.next_services_query = None
+        if not vehicle.static and vehicle.address is not None:
+            self._discovery_sends(vehicle, vehicle.discovery.on_services(
+                report, _component(vehicle.address), now, state.profile.discovery,
+                state.counters))
+        # an empty answer proves nothing (JAUS++ reads the wildcards literally)
+        first = not vehicle.services_known and (vehicle.static or vehicle.discovery.known)
+        vehicle.services_known = vehicle.services_known or first
         if changed or first:
             self._changed(vehicle, "identified", now)
         self._liveness.setup(vehicle, now)
 
     def on_configuration(self, vehicle: Vehicle, source: JausAddress,
                          fields: Mapping[str, Any], now: float) -> None:
-        """ReportConfiguration: the components to name when asking services explicitly."""
-        vehicle.configuration = [JausAddress(vehicle.subsystem, n, c)
-                                 for n, c in components_from_configuration(fields)]
+        """ReportConfiguration: the components whose services discovery must learn."""
+        if not vehicle.static and vehicle.address is not None:
+            state = self._state
+            self._discovery_sends(vehicle, vehicle.discovery.on_configuration(
+                components_from_configuration(fields), _component(vehicle.address), now,
+                state.profile.discovery, state.counters))

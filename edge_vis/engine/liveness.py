@@ -49,6 +49,8 @@ class Liveness:
         vehicle.online = True
         if vehicle.times_lost:
             log.info("vehicle %s found again", vehicle.vehicle_id)
+            if not vehicle.services_known and vehicle.next_services_query is None:
+                vehicle.next_services_query = vehicle.discovery.restart(now)
         self._changed(vehicle, "online", now)
         for address, ctl in vehicle.controls.items():
             self._state.send_outgoing(address, ctl.on_found(now))

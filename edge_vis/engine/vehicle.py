@@ -12,7 +12,7 @@ from edge_vis.config import VehicleProfile
 from edge_vis.engine.arbitration import Arbitration
 from edge_vis.engine.command_slots import CommandSlot
 from edge_vis.engine.control import ComponentControl
-from edge_vis.engine.discovery import Service, with_inherited
+from edge_vis.engine.discovery import Service, ServiceDiscovery, with_inherited
 from edge_vis.engine.subscriptions import Subscription
 from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.contract import STATUS_NAMES
@@ -35,9 +35,9 @@ class Vehicle:
     static: bool = False
     #: component -> services as reported (plus inherited ones)
     components: dict[JausAddress, tuple[Service, ...]] = field(default_factory=dict)
-    configuration: list[JausAddress] = field(default_factory=list)
+    #: what discovery asked and learned (configuration, answers, retries)
+    discovery: ServiceDiscovery = field(default_factory=ServiceDiscovery)
     services_known: bool = False
-    services_attempts: int = 0
     next_services_query: float | None = None
     online: bool = False
     last_seen: float | None = None
@@ -50,6 +50,9 @@ class Vehicle:
     event_timeout_asked: set[JausAddress] = field(default_factory=set)
     request_counter: int = 0
     times_lost: int = 0
+
+    def __post_init__(self) -> None:
+        self.discovery.label = self.vehicle_id
 
     def next_request_id(self) -> int:
         """A fresh CreateEvent/CancelEvent request ID (u8, wraps)."""

@@ -180,10 +180,15 @@ class FleetView:
         return [self.vehicles[k] for k in sorted(self.vehicles)]
 
     def render(self, now: float, width: int = 80, selected: str | None = None) -> list[str]:
-        """Lines of text for a terminal ``width`` columns wide (at least 80)."""
+        """Lines of text for a terminal ``width`` columns wide (at least 80).
+
+        Vehicle rows fit 79 columns, so curses can draw them whole on an 80-column screen:
+        ``HDG`` is the heading in degrees from north, ``M/S`` the speed, ``HZ`` telemetry
+        samples per second. Link rows give the measured use and the budget in kbit/s.
+        """
         width = max(width, 80)
-        head = (f" {'VEHICLE':<15}{'TYPE':<8}{'STATE':<10}{'POSITION':<20}{'M/S':>5} "
-                f"{'CONTROL':<14}{'HZ':>5}")
+        head = (f" {'VEHICLE':<14}{'TYPE':<8}{'STATE':<10}{'POSITION':<20}{'HDG':>4}{'M/S':>5} "
+                f"{'CONTROL':<12}{'HZ':>4}")
         lines = [head[:width]]
         for row in self.ordered():
             mark = ">" if row.vehicle_id == selected else " "
@@ -192,11 +197,13 @@ class FleetView:
                 pos = f"{row.latitude:9.5f},{row.longitude:10.5f}"
             else:
                 pos = "-"
+            heading = f"{math.degrees(row.yaw) % 360:4.0f}" if row.yaw is not None else "   -"
             speed = f"{row.speed:5.1f}" if row.speed is not None else "    -"
             control = {"CONTROLLED": row.controller or "relay", "NOT_CONTROLLED": "-"}.get(
                 row.control, row.control.lower())
-            line = (f"{mark}{row.vehicle_id[:14]:<15}{row.vehicle_type[:7]:<8}{state[:9]:<10}"
-                    f"{pos:<20}{speed} {control[:13]:<14}{row.rate(now):5.1f}")
+            line = (f"{mark}{row.vehicle_id[:13]:<14}{row.vehicle_type[:7]:<8}"
+                    f"{state[:9]:<10}{pos:<20}{heading}{speed} {control[:11]:<12}"
+                    f"{row.rate(now):4.1f}")
             lines.append(line[:width])
             extra = []
             if row.jaus_address:
@@ -206,7 +213,8 @@ class FleetView:
             if row.depth is not None:
                 extra.append(f"depth {row.depth:.1f} m")
             if row.mission and row.mission != "IDLE":
-                extra.append(f"mission {row.mission.lower()} wp {row.active_waypoint}")
+                waypoint = f" wp {row.active_waypoint}" if row.active_waypoint >= 0 else ""
+                extra.append(f"mission {row.mission.lower()}{waypoint}")
             if row.last_image:
                 size = f" ({row.last_image_size // 1024} KiB)" if row.last_image_size else ""
                 extra.append(f"image {row.last_image}{size}")
@@ -218,20 +226,20 @@ class FleetView:
             lines.append(" (no vehicle seen yet)")
         if self.links:
             lines.append("")
-            lines.append(f"{'LINK':<10}{'UP':<4}{'USE':>7} {'BUDGET':>10} {'IN/OUT msgs':>16}"
-                         f"{'QUEUE':>7}{'DROPS':>7}"[:width])
+            lines.append((f"{'LINK':<10}{'UP':<4}{'USE kb/s':>9}{'BUDGET kb/s':>12}{'LOAD':>6} "
+                          f"{'IN/OUT msgs':>14}{'QUEUE':>7}{'DROPS':>7}")[:width])
             for name in sorted(self.links):
                 link = self.links[name]
                 budget = float(link.get("budget_bps", 0.0) or 0.0)
                 measured = float(link.get("measured_bps", 0.0) or 0.0)
-                use = f"{100 * measured / budget:5.1f}%" if budget > 0 else \
-                    f"{measured / 1000:5.1f}k"
+                load = f"{100 * measured / budget:5.1f}%" if budget > 0 else "-"
+                budget_text = f"{budget / 1000:.1f}" if budget > 0 else "unlimited"
                 drops = sum(int(d.get("count", 0)) for d in link.get("drops", []) or [])
                 msgs = f"{link.get('messages_in', 0)}/{link.get('messages_out', 0)}"
-                budget_text = f"{budget / 1000:.1f} kb/s" if budget > 0 else "unlimited"
                 queue = int(link.get("queue_depth", 0) or 0)
-                lines.append((f"{name[:9]:<10}{'yes' if link.get('up') else 'NO':<4}{use:>7} "
-                              f"{budget_text:>10} {msgs:>16}{queue:>7}{drops:>7}")[:width])
+                lines.append((f"{name[:9]:<10}{'yes' if link.get('up') else 'NO':<4}"
+                              f"{measured / 1000:9.1f}{budget_text:>12}{load:>6} {msgs:>14}"
+                              f"{queue:>7}{drops:>7}")[:width])
         return lines
 
     def summary(self) -> dict[str, Any]:

@@ -82,3 +82,25 @@ def test_check_and_plan_commands(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert main(["plan", str(site), "--vehicles", "10"]) == 1
     out = capsys.readouterr().out
     assert "WARNING" in out and "DROPPED" in out
+
+
+def test_plan_without_vehicles_says_how_to_get_one(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    site = tmp_path / "site.toml"
+    site.write_text('[links.radio]\nurl = "serial:///dev/null"\nprofile = "serial-57600"\n'
+                    '[report_rates]\nReportGlobalPose = 5.0\n')
+    assert main(["plan", str(site)]) == 0
+    captured = capsys.readouterr()
+    assert "planned 0 B/s" in captured.out
+    assert "nothing planned on link radio" in captured.err
+    assert f"edge-vis plan {site} --vehicles N" in captured.err
+    assert main(["plan", str(site), "--vehicles", "1"]) == 0
+    captured = capsys.readouterr()
+    assert "vehicle-1" in captured.out and captured.err == ""
+
+
+def test_the_demo_profile_plans_its_serial_radio(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["plan", str(ROOT / "profiles" / "demo.toml")]) == 0
+    captured = capsys.readouterr()
+    assert "uuv-delta-300    ReportGlobalPose" in captured.out
+    assert "planned 0 B/s" not in captured.out and captured.err == ""

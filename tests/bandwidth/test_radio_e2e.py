@@ -9,10 +9,10 @@ import asyncio
 from typing import Any
 
 import pytest
-from edge_vis.tools.sim.profile import parse_profile
 
 from edge_vis.config import from_mapping
 from edge_vis.shell.relay import Runtime
+from edge_vis.tools.sim.profile import parse_profile
 from edge_vis.tools.sim.runner import Simulation
 
 from .radiohub import RadioHub

@@ -84,6 +84,14 @@ def test_bundle_checks_and_runs_from_a_bare_directory(
     assert '"message": "stopped"' in ran.stderr
 
 
+def test_bundle_demo_says_it_needs_a_checkout(relay_box: tuple[Path, dict[str, str]]) -> None:
+    box, env = relay_box
+    done = _run(box, env, "demo", "--duration", "1")
+    assert done.returncode == 2
+    assert "source checkout" in done.stderr and "bash scripts/demo.sh" in done.stderr
+    assert ".shiv" not in done.stderr  # no path from inside the unpacked bundle
+
+
 def test_bundle_carries_the_binary_dependencies(
     relay_box: tuple[Path, dict[str, str]]
 ) -> None:

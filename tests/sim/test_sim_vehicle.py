@@ -6,10 +6,10 @@ import hashlib
 import math
 
 from conftest import NODE_MANAGER, OCU, PLATFORM, SENSORS, Wire, named, spec
-from edge_vis.tools.sim.images import PNG_SIGNATURE
-from edge_vis.tools.sim.kinematics import Origin
 
 from edge_vis.jaus.address import BROADCAST, JausAddress
+from edge_vis.tools.sim.images import PNG_SIGNATURE
+from edge_vis.tools.sim.kinematics import Origin
 
 
 def test_discovery_answers_like_a_subsystem(wire: Wire) -> None:

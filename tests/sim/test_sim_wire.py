@@ -9,6 +9,7 @@ from __future__ import annotations
 import asyncio
 import hashlib
 import os
+import socket
 import subprocess
 import sys
 import tty
@@ -263,3 +264,24 @@ def test_sim_command_prints_where_each_vehicle_is(tmp_path: Path) -> None:
     assert done.returncode == 2
     for needle in ("subsystem", "link", "speed: unknown key"):
         assert needle in done.stderr
+
+
+def test_sim_reports_a_taken_address_on_stderr_naming_the_vehicle(tmp_path: Path) -> None:
+    holder = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    holder.bind(("127.0.0.73", 0))
+    port = holder.getsockname()[1]
+    profile = tmp_path / "taken.toml"
+    profile.write_text('[[vehicles]]\nname = "first"\nsubsystem = 151\n'
+                       'link = "udp://127.0.0.74:0"\n'
+                       '[[vehicles]]\nname = "blocked"\nsubsystem = 152\n'
+                       f'link = "udp://127.0.0.73:{port}"\n')
+    try:
+        done = subprocess.run([sys.executable, "-m", "edge_vis", "sim", "--profile",
+                               str(profile), "--duration", "5"],
+                              capture_output=True, text=True, timeout=30)
+    finally:
+        holder.close()
+    assert done.returncode == 2
+    assert done.stdout == ""  # stdout is for "vehicle on the air" lines only
+    assert f"edge-vis sim: blocked: cannot open udp://127.0.0.73:{port}: " in done.stderr
+    assert "Address already in use" in done.stderr and "already running?" in done.stderr

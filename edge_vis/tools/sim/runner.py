@@ -70,6 +70,11 @@ class VehicleEndpoint:
     def name(self) -> str:
         return self.spec.name
 
+    @property
+    def where(self) -> str:
+        """Where the vehicle is on the air, as a link URL (for messages and scripts)."""
+        raise NotImplementedError
+
     # -- life cycle -----------------------------------------------------------------------
 
     async def start(self) -> None:
@@ -255,6 +260,10 @@ class UdpVehicle(VehicleEndpoint, asyncio.DatagramProtocol):
             return self.spec.udp_address
         return self._transport.get_extra_info("sockname")[:2]
 
+    @property
+    def where(self) -> str:
+        return "udp://{}:{}".format(*self.address)
+
     async def _open(self) -> None:
         loop = asyncio.get_running_loop()
         transport, _ = await loop.create_datagram_endpoint(
@@ -354,6 +363,11 @@ class PtyVehicle(VehicleEndpoint):
         self._backlog = bytearray()
         self._writer: asyncio.Task[None] | None = None
         self._routes: set[JausAddress] = set()
+
+    @property
+    def where(self) -> str:
+        where = f"serial://{self.slave_path}" if self.slave_path else "a pseudo-terminal"
+        return where + (f" (link {self.spec.pty_link})" if self.spec.pty_link else "")
 
     async def _open(self) -> None:
         master, slave = os.openpty()
@@ -463,6 +477,16 @@ def endpoint_for(spec: VehicleSpec, catalogue: Catalogue | None = None) -> Vehic
     return PtyVehicle(spec, catalogue) if spec.is_pty else UdpVehicle(spec, catalogue)
 
 
+class VehicleLinkError(OSError):
+    """A vehicle's medium could not be opened; the message names the vehicle and where."""
+
+    def __init__(self, endpoint: VehicleEndpoint, cause: OSError) -> None:
+        reason = cause.strerror or str(cause)
+        super().__init__(f"{endpoint.name}: cannot open {endpoint.where}: {reason}")
+        self.errno = cause.errno
+        self.vehicle = endpoint.name
+
+
 class Simulation:
     """Every vehicle of a profile, started and stopped together."""
 
@@ -472,11 +496,18 @@ class Simulation:
         self.endpoints = [endpoint_for(v, self.catalogue) for v in profile.vehicles]
 
     async def start(self) -> None:
-        """Open every vehicle's medium; on failure close the ones already open."""
+        """Open every vehicle's medium; on failure close the ones already open.
+
+        Raises :class:`VehicleLinkError` naming the vehicle whose medium failed.
+        """
         started: list[VehicleEndpoint] = []
         try:
             for ep in self.endpoints:
-                await ep.start()
+                try:
+                    await ep.start()
+                except OSError as exc:
+                    await ep.stop()
+                    raise VehicleLinkError(ep, exc) from exc
                 started.append(ep)
         except BaseException:
             for ep in started:
@@ -501,6 +532,7 @@ __all__ = [
     "Simulation",
     "UdpVehicle",
     "VehicleEndpoint",
+    "VehicleLinkError",
     "corrupt_datagram",
     "corrupt_frame",
     "endpoint_for",
