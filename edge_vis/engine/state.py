@@ -1,0 +1,101 @@
+"""The state every part of the engine shares, and the outbox its actions go to. No I/O.
+
+The engine's concerns (finding vehicles, liveness, access control, reports, commands,
+operators, rates, the timer pass) are separate objects; this is what they have in common
+and are handed explicitly: the profile, the vehicle table, the counters, the outbox of
+actions for the runtime, the set of vehicles the current input touched and a few
+engine-wide flags. Keeping it in one plain object makes the sharing visible and keeps the
+concerns free of references to each other's internals.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, Protocol
+
+from edge_vis.bandwidth.demands import FleetPlanner
+from edge_vis.config import RelayProfile
+from edge_vis.engine.control import Outgoing
+from edge_vis.engine.subscriptions import Request
+from edge_vis.engine.vehicle import Vehicle
+from edge_vis.jaus.address import JausAddress
+from edge_vis.kit.actions import Action, SendMessage
+
+#: tells translators that ``vehicle`` changed (``change`` names what) at ``now``
+Changed = Callable[[Vehicle, str, float], None]
+#: handles one (possibly unwrapped) JAUS message ``name`` of a known vehicle
+Handle = Callable[[Vehicle, JausAddress, str, Mapping[str, Any], float], None]
+#: handles one JAUS message of a known vehicle whose name is implied (a handler table entry)
+Handler = Callable[[Vehicle, JausAddress, Mapping[str, Any], float], None]
+
+
+class InnerCodec(Protocol):
+    """What the engine needs from the catalogue: the payloads nested in events."""
+
+    def encode(self, name_or_code: str | int, fields: Mapping[str, Any]) -> bytes: ...
+
+    def decode(self, payload: bytes) -> Any: ...
+
+
+class EngineState:
+    """Profile, vehicle table, counters, outbox and flags shared by the engine's parts."""
+
+    def __init__(self, profile: RelayProfile, catalogue: InnerCodec | None,
+                 wall_offset: float, planner: FleetPlanner | None) -> None:
+        self.profile = profile
+        #: plans report rates to fit the links' budgets (None: the profiles' rates as is)
+        self.planner = planner
+        self.wall_offset = wall_offset
+        self.counters: Counter[str] = Counter()
+        #: subsystem -> vehicle, and the same vehicles by id
+        self.vehicles: dict[int, Vehicle] = {}
+        self.by_id: dict[str, Vehicle] = {}
+        #: what the runtime is to carry out, in order (drained by the engine's caller)
+        self.actions: list[Action] = []
+        #: vehicles whose state the current input changed: the next pass visits them
+        self.touched: dict[int, Vehicle] = {}
+        #: the name of the link a JAUS address is reached over (the runtime asks its
+        #: router); vehicle profiles that name their link take precedence
+        self.link_of: Callable[[JausAddress], str] = lambda _address: ""
+        #: (vehicle id, report) the bandwidth plan could not fit at all
+        self.dropped: set[tuple[str, str]] = set()
+        #: a subscription started or stopped polling: the rates must be planned again
+        self.plan_dirty = False
+        self.shutting_down = False
+        #: ShutdownComplete was emitted: the engine takes no more input
+        self.done = False
+        self._catalogue = catalogue
+
+    @property
+    def catalogue(self) -> InnerCodec:
+        """The catalogue used for payloads nested in CreateEvent and Event."""
+        if self._catalogue is None:
+            from edge_vis.catalogue import default_catalogue
+
+            self._catalogue = default_catalogue()
+        return self._catalogue
+
+    def encode_query(self, name: str, fields: Mapping[str, Any]) -> bytes:
+        """The complete query message a CreateEvent carries."""
+        return self.catalogue.encode(name, fields)
+
+    def touch(self, vehicle: Vehicle) -> None:
+        """``vehicle``'s state changed: the next pass must visit it."""
+        self.touched[id(vehicle)] = vehicle
+
+    def send(self, destination: JausAddress, name: str, fields: Mapping[str, Any],
+             traffic_class: str = "liveness") -> None:
+        """Queue a JAUS message for ``destination``."""
+        self.actions.append(SendMessage(destination, name, dict(fields),
+                                        traffic_class=traffic_class))
+
+    def send_outgoing(self, destination: JausAddress, items: Sequence[Outgoing]) -> None:
+        """Queue what an access-control machine wants sent."""
+        for item in items:
+            self.send(destination, item.name, item.fields, "control")
+
+    def send_requests(self, destination: JausAddress, items: Sequence[Request]) -> None:
+        """Queue what a subscription machine wants sent."""
+        for item in items:
+            self.send(destination, item.name, item.fields, "telemetry")
