@@ -3,7 +3,7 @@
 * :mod:`~edge_vis.config.deployment` - the deployment profile's schema (:class:`RelayProfile`
   and its sections, :class:`LinkProfile`, :class:`TranslatorSelection`, ...);
 * :mod:`~edge_vis.config.vehicles` - vehicle profiles (inline or files of their own);
-* :mod:`~edge_vis.config.rates` - ``[report_rates]`` entries;
+* :mod:`~edge_vis.config.report_rates` - ``[report_rates]`` entries;
 * :mod:`~edge_vis.config.operators` - who may request control;
 * :mod:`~edge_vis.config.loader` - reading profile files and the files they reference;
 * :mod:`~edge_vis.config.kinds` - which kind of profile a TOML file is (``edge-vis check``).
@@ -42,7 +42,7 @@ from edge_vis.config.loader import (
     read_toml,
 )
 from edge_vis.config.operators import OperatorPolicy
-from edge_vis.config.rates import DEFAULT_MINIMUM_SHARE, DEFAULT_REPORT_PRIORITY, ReportRate
+from edge_vis.config.report_rates import DEFAULT_MINIMUM_SHARE, DEFAULT_REPORT_PRIORITY, ReportRate
 from edge_vis.config.vehicles import ComponentProfile, ServiceProfile, VehicleProfile
 
 __all__ = [

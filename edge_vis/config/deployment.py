@@ -11,7 +11,7 @@ setting's type, default, range and TOML key is written here once. The file layou
     [dds]            domain, partitions                 -> DdsProfile
     [translators]    enabled, disabled, [translators.NAME] tables -> TranslatorSelection
     [discovery] [control] [events] [commands] [limits] [bulk]
-    [report_rates]   Report = Hz or {desired, minimum, priority} (edge_vis.config.rates)
+    [report_rates]   Report = Hz or {desired, minimum, priority} (edge_vis.config.report_rates)
     [[vehicles]]     inline tables or {file = "..."} (edge_vis.config.vehicles)
     [[operators]]    id, max_authority; [access] any_operator  -> OperatorPolicy
     [catalogue]      jsidl = [files]
@@ -29,7 +29,7 @@ from urllib.parse import parse_qsl, urlencode, urlsplit
 
 from edge_vis.bandwidth.linkspec import LinkSpec
 from edge_vis.config.operators import OperatorPolicy
-from edge_vis.config.rates import DEFAULT_MINIMUM_SHARE, DEFAULT_REPORT_PRIORITY
+from edge_vis.config.report_rates import DEFAULT_MINIMUM_SHARE, DEFAULT_REPORT_PRIORITY
 from edge_vis.config.vehicles import VehicleProfile
 from edge_vis.errors import ConfigError
 from edge_vis.jaus.address import JausAddress

@@ -31,7 +31,7 @@ from urllib.parse import parse_qsl, urlsplit
 from edge_vis.bandwidth.linkspec import SPEC_KEYS, LinkSpec, load_link_spec, read_link_spec
 from edge_vis.config.deployment import AccessProfile, LinkProfile, OperatorEntry, RelayProfile
 from edge_vis.config.operators import OperatorPolicy
-from edge_vis.config.rates import REPORT_RATES, split_rates
+from edge_vis.config.report_rates import REPORT_RATES, split_rates
 from edge_vis.config.vehicles import VehicleProfile, read_vehicle
 from edge_vis.errors import ConfigError, PluginError
 from edge_vis.routing.link import check_link_url

@@ -27,7 +27,7 @@ from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, replace
 from typing import Any, ClassVar
 
-from edge_vis.config.rates import REPORT_RATES, split_rates
+from edge_vis.config.report_rates import REPORT_RATES, split_rates
 from edge_vis.jaus.address import JausAddress
 from edge_vis.schema import Reader, setting
 
