@@ -6,7 +6,7 @@ every SendMessage the engine emits is encoded too, so a wrong field name fails a
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -97,6 +97,14 @@ class Harness:
                 self.catalogue.encode(name, dict(action.fields))
         self.log.extend(actions)
         return actions
+
+
+def wire(catalogue: Any, out: Sequence[Any]) -> list[tuple[str, dict[str, Any]]]:
+    """(name, fields) of each message a state machine emitted, each proven encodable by
+    the catalogue."""
+    for item in out:
+        catalogue.encode(item.name, dict(item.fields))
+    return [(item.name, dict(item.fields)) for item in out]
 
 
 def sent(actions: Iterable[Any], name: str | None = None,

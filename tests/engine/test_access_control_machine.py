@@ -19,7 +19,6 @@ next wants to act.
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from collections.abc import Sequence
 from itertools import pairwise
 from typing import Any
 
@@ -28,7 +27,7 @@ import pytest
 from edge_vis.config import ControlProfile
 from edge_vis.engine.control import READY, ComponentControl, ControlState, Outgoing
 
-from .conftest import SHARED
+from .conftest import SHARED, wire
 
 PROFILE = ControlProfile(renewal_period=2.0, response_timeout=1.0, retry_period=5.0,
                          max_ready_attempts=2)
@@ -105,12 +104,6 @@ def machine(history: str, managed: bool = False) -> ComponentControl:
     assert ctl.state is reached, f"history {history!r} did not reach {reached}"
     return ctl
 
-
-def wire(catalogue: Any, out: Sequence[Outgoing]) -> list[tuple[str, dict[str, Any]]]:
-    """(name, fields) of each message, each proven encodable by the catalogue."""
-    for item in out:
-        catalogue.encode(item.name, dict(item.fields))
-    return [(item.name, dict(item.fields)) for item in out]
 
 
 # (history, input, at) -> (next state, messages sent, next deadline)

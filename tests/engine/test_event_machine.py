@@ -18,7 +18,6 @@ report instead when events are rejected or never answered.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from itertools import pairwise
 from typing import Any
 
@@ -27,6 +26,8 @@ import pytest
 from edge_vis.config import EventsProfile
 from edge_vis.engine.subscriptions import MAX_STALE, Request, Subscription, SubscriptionState
 from edge_vis.jaus.address import JausAddress
+
+from .conftest import wire
 
 PROFILE = EventsProfile(response_timeout=1.0, attempts=2, default_refresh=60.0)
 PROVIDER = JausAddress(150, 1, 1)
@@ -145,12 +146,6 @@ def machine(catalogue: Any, history: str, rate: float = RATE) -> Subscription:
     assert sub.state is reached, f"history {history!r} did not reach {reached}"
     return sub
 
-
-def wire(catalogue: Any, out: Sequence[Request]) -> list[tuple[str, dict[str, Any]]]:
-    """(name, fields) of each message, each proven encodable by the catalogue."""
-    for item in out:
-        catalogue.encode(item.name, dict(item.fields))
-    return [(item.name, dict(item.fields)) for item in out]
 
 
 def expected(catalogue: Any, messages: list[tuple[str, dict[str, Any]]]
