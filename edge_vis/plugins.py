@@ -1,8 +1,8 @@
 """Finding and loading plugins through entry points. Reads package metadata and imports
 plugin modules; no other I/O.
 
-Links, bulk channels, translators and message sets are separate distributions (or the ``links`` and
-``translators`` packages shipped beside the core) that declare entry points in one of
+Links, bulk channels, translators and message sets are separate distributions (or the
+``links`` and ``translators`` packages shipped beside the core) that declare entry points in one of
 :data:`GROUPS`. The core names a plugin only by group and entry-point name, so it never
 imports a plugin package by name, and a user adds one by installing it, not by editing
 edge-vis.
@@ -14,8 +14,7 @@ edge-vis.
   definitions), so a plugin in the wrong group is caught by ``edge-vis plugins --check``
   and at start-up, not later inside the relay. A missing name raises
   :class:`~edge_vis.errors.PluginNotFoundError` listing the names that do exist and the
-  one a typo most likely meant; an
-  import that fails, or an object of the wrong kind, raises
+  one a typo most likely meant; an import that fails, or an object of the wrong kind, raises
   :class:`~edge_vis.errors.PluginLoadError` naming the plugin, chained to the cause.
 * :func:`register` adds a plugin from inside the process (tests, embedding); it is loaded
   and validated by the same code as an installed one.

@@ -17,7 +17,6 @@ from typing import Any
 
 from edge_vis import plugins
 from edge_vis.errors import ConfigError
-from edge_vis.routing.bulk import BulkChannel
 
 log = logging.getLogger(__name__)
 
@@ -80,7 +79,7 @@ def _bridge(domain: int, partitions: list[str]) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    udt = plugins.load(plugins.BULK, "udt", BulkChannel)
+    udt = plugins.load(plugins.BULK, "udt")  # checked against the group's BulkChannel contract
     try:
         listen = udt.parse_address(args.listen)
         forward = [udt.parse_address(f) for f in args.forward]

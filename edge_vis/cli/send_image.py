@@ -15,7 +15,6 @@ from typing import Any, TextIO
 
 from edge_vis import plugins
 from edge_vis.errors import ConfigError
-from edge_vis.routing.bulk import BulkChannel
 
 NAME = "send-image"
 HELP = "send image files over UDT with resume; exit 0 when the receiver verified every one"
@@ -127,7 +126,7 @@ def _atr(udt: Any, args: argparse.Namespace) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    udt = plugins.load(plugins.BULK, "udt", BulkChannel)
+    udt = plugins.load(plugins.BULK, "udt")  # checked against the group's BulkChannel contract
     for path in args.files:
         if not path.is_file():
             raise ConfigError(f"{path}: no such file")

@@ -18,7 +18,7 @@ then one line saying the rest is suppressed; time is an argument.
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import Enum
 
@@ -115,7 +115,3 @@ class LogLimiter:
             self._log.warning("%s: further messages of this kind suppressed for %.0f s", key,
                               self._window_s)
         return False
-
-    def keys(self) -> Iterable[str]:
-        """Keys seen so far (for tests and status)."""
-        return self._windows.keys()

@@ -37,7 +37,6 @@ from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import Broadcast, Packet
 from edge_vis.kit.actions import Publish, SendMessage, ShutdownComplete
 from edge_vis.routing.accounting import Kind, LogLimiter, Tally, losses, tallies_of, totals
-from edge_vis.routing.bulk import BulkChannel
 from edge_vis.routing.link import Link, Peer, create_link
 from edge_vis.routing.router import Deliver, DeliveryFailed, Router, RouterConfig, SendPackets
 from edge_vis.routing.traffic import priority_for
@@ -161,13 +160,9 @@ class Runtime:
                 return lp.spec
         return None
 
-    def _link_of(self, address: Any) -> str | None:
-        route = self.router.lookup(address)
-        return route.link if route is not None else None
-
     def _start_bulk(self, bulk: BulkProfile) -> None:
         """The UDT image receiver: spooled, verified, published here, forwarded on."""
-        udt = plugins.load(plugins.BULK, "udt", BulkChannel)
+        udt = plugins.load(plugins.BULK, "udt")  # checked against the group's BulkChannel contract
         loop = self._loop
         assert loop is not None
 
