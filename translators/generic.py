@@ -14,16 +14,17 @@ from JSIDL::
 The table is declared as dataclasses (:class:`GenericOptions`, :class:`GenericMapping`)
 and read by the validation kit. Before the relay starts (and in ``edge-vis check``),
 :meth:`GenericTranslator.verify` looks every message, query, service and field path up in
-the live catalogue, the profile's own JSIDL included. Field paths start at the message's
-fields: a body that is one record is flattened when decoded, so its record's name is not
-part of the path (``turbidity``, not ``water_quality_rec.turbidity``).
+the live catalogue, the profile's own JSIDL included, and names each one missing. Field
+paths start at the message's fields; a body that is one record is flattened when decoded,
+and a path qualified by that record's name (``water_quality_rec.turbidity``, as the JSIDL
+nests it) is read as the flattened one (``turbidity``): both publish the same value.
 """
 
 from __future__ import annotations
 
 import difflib
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from edge_vis.kit import (
@@ -38,6 +39,7 @@ from edge_vis.kit import (
     get_path,
     path_problem,
     read_table,
+    resolve_path,
     setting,
 )
 
@@ -147,6 +149,16 @@ def catalogue_problems(mapping: GenericMapping, catalogue: Any) -> Iterator[tupl
                              f"catalogue{_close(mapping.service, services)}"
 
 
+def resolved(mapping: GenericMapping, catalogue: Any) -> GenericMapping:
+    """``mapping`` with its field paths as decoded fields hold them (a record-qualified
+    path of a flattened body loses the record's name)."""
+    defn = _lookup(catalogue, mapping.message)
+    if defn is None:
+        return mapping
+    return replace(mapping, fields={dds: resolve_path(defn.body, path)[0]
+                                    for dds, path in mapping.fields.items()})
+
+
 def _lookup(catalogue: Any, name: str) -> Any:
     try:
         return catalogue.by_name(name)
@@ -180,13 +192,15 @@ class GenericTranslator(RuleTranslator):
         self._set(options.mappings)
 
     def verify(self, catalogue: Any, source: str = "") -> None:
-        """Every message, query, service and field path must exist in ``catalogue``."""
+        """Every message, query, service and field path must exist in ``catalogue``;
+        record-qualified paths are then read as the flattened ones."""
         where = f"translators.{self.name}.mappings"
         problems = [(source, f"{where}[{i}].{key}", reason)
                     for i, m in enumerate(self.mappings)
                     for key, reason in catalogue_problems(m, catalogue)]
         if problems:
             raise ConfigError(problems)
+        self._set(tuple(resolved(m, catalogue) for m in self.mappings))
 
     def _set(self, mappings: tuple[GenericMapping, ...]) -> None:
         self.mappings = mappings
