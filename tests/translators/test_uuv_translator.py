@@ -13,7 +13,6 @@ from rulekit import CAT, CTX, TYPES, Relay, check_report_rule
 from edge_vis.config import from_mapping, load_profile
 from edge_vis.dds.convert import converter_for
 from edge_vis.jaus.address import JausAddress
-from edge_vis.kit.actions import DeclareVehicle
 from translators.uuv import UuvTranslator
 
 TR = UuvTranslator
