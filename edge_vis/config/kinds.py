@@ -14,9 +14,10 @@ Four kinds of TOML file configure edge-vis, each with its own schema:
 The top-level keys tell them apart: each kind has keys no other has (``[relay]``,
 ``vehicle_id``, ``seed``, ``bit_rate``...), ``[[vehicles]]`` entries of a deployment
 have ``vehicle_id`` or ``file`` where a sim's have ``name``, and a ``[discovery]`` table
-holds a deployment's timing (``period``...) or how a vehicle is found (``hello``...). When the keys do not tell
-(an empty file, only keys two kinds share, or keys of two kinds mixed), the folder decides
-if it names one of the candidates (``sim``, ``vehicles``, ``links``).
+holds a deployment's timing (``period``...) or how a vehicle is found (``hello``...).
+When the keys do not tell (an empty file, only keys two kinds share, or keys of two kinds
+mixed), the folder decides if it names one of the candidates (``sim``, ``vehicles``,
+``links``).
 """
 
 from __future__ import annotations

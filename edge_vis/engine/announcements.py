@@ -106,6 +106,8 @@ class Announcements:
         self._changed = changed
         #: (message, field path) -> the path as decoded fields hold it
         self._paths: dict[tuple[str, str], str] = {}
+        #: (sender, message) whose services passive discovery has added
+        self._inferred: set[tuple[JausAddress, str]] = set()
 
     def _profiles(self) -> tuple[VehicleProfile, ...]:
         return tuple(vp for vp in self._state.profile.vehicles if vp.discovery is not None)
@@ -225,6 +227,9 @@ class Announcements:
                  vehicle: Vehicle | None, now: float) -> Vehicle | None:
         found = vp.discovery
         assert found is not None
+        if vehicle is not None and (source, name) in self._inferred:
+            return vehicle  # what this message says of its sender is known
+        self._inferred.add((source, name))
         inferred = list(getattr(_definition(self._state.catalogue, name), "services", ()))
         if vehicle is not None:
             if inferred and vehicle.set_services(source, inferred):

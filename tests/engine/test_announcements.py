@@ -128,3 +128,20 @@ def test_passive_family_declares_every_sender_of_its_messages(catalogue: Any) ->
     h.deliver("92.1.1", "ReportHeartbeatPulse", {})  # not one of its messages
     assert sorted(v.vehicle_id for v in h.engine.vehicles.values()) == ["jaus-90", "jaus-91"]
     assert h.engine.counters["vehicles_found_passively"] == 2
+
+
+def test_a_reloaded_family_profile_reaches_its_running_vehicles(catalogue: Any) -> None:
+    family = {"hello": "ReportBatteryHello", "name_field": "pack_name"}
+    h = relay(catalogue, vehicles=[{"discovery": {**family, "silence_timeout": 5.0}}])
+    h.deliver("77.1.3", "ReportBatteryHello", HELLO)
+    vehicle = h.engine.vehicle("Aft_pack-77")
+    assert vehicle is not None
+    h.engine.apply_profile(profile(vehicles=[{"report_rates": {"ReportBatteryPack": 0.5},
+                                              "discovery": {**family,
+                                                            "silence_timeout": 20.0}}]),
+                           h.now)
+    assert vehicle.silence_timeout(3.0) == 20.0
+    assert vehicle.profile is not None and vehicle.profile.report_rates == {
+        "ReportBatteryPack": 0.5}
+    h.advance(10.0)
+    assert vehicle.online  # the new 20 s, not the old 5 s
