@@ -52,10 +52,6 @@ def _urn(uri: str) -> str | None:
     return None if uri.startswith("urn:") else f"service URI {uri!r} does not start with 'urn:'"
 
 
-def _non_empty(text: str) -> str | None:
-    return None if text else "must not be empty"
-
-
 @dataclass(frozen=True, slots=True)
 class ServiceProfile:
     """A service a component offers: URI and ``major.minor`` version; a bare string is

@@ -113,7 +113,8 @@ def test_engine_discovers_by_hello_and_subscribes_without_identification() -> No
     relay = Relay(family(), [TR()])
     relay.advance(0.1)
     relay.actions.clear()
-    relay.deliver("60.1.5", "VendorHello", HELLO)
+    events = {"uri": "urn:jaus:jss:core:Events", "major_version": 1, "minor_version": 1}
+    relay.deliver("60.1.5", "VendorHello", {**HELLO, "services": [*HELLO["services"], events]})
     relay.advance(0.5)
     creates = relay.sent("CreateEvent")
     assert creates and creates[0].destination == JausAddress(60, 1, 5)
@@ -124,6 +125,16 @@ def test_engine_discovers_by_hello_and_subscribes_without_identification() -> No
     (sample,) = relay.published("EnvironmentalData")
     assert sample["vehicle_id"] == "Nemo-60"
     assert sample["water_temperature"] == pytest.approx(12.5, abs=1e-3)
+
+
+def test_a_hello_without_events_is_polled_at_once() -> None:
+    relay = Relay(family(), [TR()])
+    relay.advance(0.1)
+    relay.actions.clear()
+    relay.deliver("60.1.5", "VendorHello", HELLO)  # no Events service listed
+    assert not relay.sent("CreateEvent")
+    (query,) = relay.sent("QueryOceanEnvironment")
+    assert query.destination == JausAddress(60, 1, 5)
 
 
 def test_static_vehicle_profile_instead_of_discovery() -> None:
