@@ -1,28 +1,28 @@
 """The README's battery example, end to end from its shipped files, no Python of its own.
 
-``profiles/examples/battery/``: the relay profile (relay.toml, only its link and DDS domain
-moved to the test's), the JSIDL it loads and the discovery profile it takes. The pack is
-a peer written here from BatteryPack.xml, byte by byte as its firmware would be: it says
-ReportBatteryHello and answers QueryBatteryPack over real UDP, and knows nothing else of
-JAUS. An operator's Cyclone DDS participant must see the pack identified by its hello and
-its report on the BatteryPack topic.
+``edge-vis run`` runs in a process of its own on a copy of ``profiles/examples/battery/``
+(relay.toml with only its link and DDS domain moved to the test's, the JSIDL it loads and
+the discovery profile it takes, unchanged). The pack is a peer written here from
+BatteryPack.xml, byte by byte as its firmware would be: it says ReportBatteryHello and
+answers QueryBatteryPack over real UDP, and knows nothing else of JAUS. An operator's
+Cyclone DDS participant in this process must see the pack identified by its hello and its
+report on the BatteryPack topic.
 """
 
 from __future__ import annotations
 
 import asyncio
+import shutil
 import struct
+import sys
 import time
-import tomllib
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-from edge_vis.config import from_mapping
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import Packet, pack_datagram, unpack_datagram
-from edge_vis.shell.relay import Runtime
 
 pytestmark = pytest.mark.dds
 
@@ -111,14 +111,22 @@ async def collect(operator: Any, topic: str, vehicle_id: str,
     raise AssertionError(f"no {topic} sample of {vehicle_id} within {timeout} s")
 
 
-def test_battery_pack_from_jsidl_to_dds(domain_id: int, partition: str) -> None:
+def test_battery_pack_from_jsidl_to_dds(domain_id: int, partition: str,
+                                        tmp_path: Path) -> None:
     from edge_vis.dds.model import GenericReport
     from edge_vis.dds.topics import TopicKind, TopicRegistry, TopicSpec
 
-    data = tomllib.loads((EXAMPLE / "relay.toml").read_text())
-    data["links"]["lan"]["url"] = f"udp://{RELAY_IP}:3794?peers={PACK_IP}:3794"
-    data["dds"] = {"domain": domain_id, "partitions": [partition]}
-    profile = from_mapping(data, file=str(EXAMPLE / "relay.toml"), base_dir=EXAMPLE)
+    for name in ("BatteryPack.xml", "battery-pack.toml", "relay.toml"):
+        shutil.copy(EXAMPLE / name, tmp_path / name)
+    relay_toml = tmp_path / "relay.toml"
+    text = relay_toml.read_text()
+    for old, new in (('url = "udp://127.0.0.1:3794"',
+                      f'url = "udp://{RELAY_IP}:3794?peers={PACK_IP}:3794"'),
+                     ("[dds]\ndomain = 0\n",
+                      f'[dds]\ndomain = {domain_id}\npartitions = ["{partition}"]\n')):
+        assert old in text
+        text = text.replace(old, new)
+    relay_toml.write_text(text)
     # the operator's side: the topic the mapping publishes, GenericReport-typed
     registry = TopicRegistry.standard()
     registry.register(TopicSpec("BatteryPack", GenericReport, TopicKind.TELEMETRY))
@@ -127,11 +135,13 @@ def test_battery_pack_from_jsidl_to_dds(domain_id: int, partition: str) -> None:
         loop = asyncio.get_running_loop()
         peer = BatteryPackPeer()
         await loop.create_datagram_endpoint(lambda: peer, local_addr=(PACK_IP, 3794))
-        runtime = Runtime(profile)
+        relay = await asyncio.create_subprocess_exec(
+            sys.executable, "-m", "edge_vis", "run", "--profile", str(relay_toml),
+            "--duration", "60", stdout=asyncio.subprocess.DEVNULL,
+            stderr=asyncio.subprocess.PIPE)
         operator = dds.DdsBridge(domain_id, (partition,), registry)
-        await runtime.start()
         try:
-            ident = await collect(operator, "VehicleIdentification", "BP-0042")
+            ident = await collect(operator, "VehicleIdentification", "BP-0042", 20.0)
             assert (ident["name"], ident["vehicle_type"]) == ("Aft pack", "LIFEPO4")
             assert ident["jaus_address"] == "77.1.3"
             report = await collect(operator, "BatteryPack", "BP-0042")
@@ -146,8 +156,11 @@ def test_battery_pack_from_jsidl_to_dds(domain_id: int, partition: str) -> None:
             assert peer.asked(0xE0C1) and not peer.asked(0x01F0)  # CreateEvent
             assert not peer.asked(0x2B03) and not peer.asked(0x2B01)  # Query{Services,Config}
         finally:
-            await runtime.stop()
+            if relay.returncode is None:
+                relay.terminate()
+            _, err = await relay.communicate()
             operator.close()
             peer.close()
+        assert relay.returncode in (0, -15), err.decode()[-2000:]
 
     asyncio.run(run())
