@@ -1,22 +1,43 @@
-"""The ``generic`` translator: JAUS -> DDS mappings read from the deployment profile. No I/O.
+"""The ``generic`` translator: JAUS <-> DDS mappings read from the deployment profile. No I/O.
 
 Rules come from the deployment profile instead of Python, for messages a user loads
 from JSIDL::
 
     [[translators.generic.mappings]]
     message = "ReportWaterQuality"        # a message of the user's JSIDL
-    topic = "WaterQuality"                # DDS topic (type edge_vis::GenericReport)
+    topic = "WaterQuality"                # DDS topic, typed from the JSIDL
     query = "QueryWaterQuality"           # optional: how to ask for it ...
     service = "urn:example:WaterQuality"  # ... from which service
     rate = 0.5                            # Hz
     fields = { turbidity = "turbidity", ph = "chemistry.ph" }   # DDS name = JAUS path
+    # generic = true                      # the untyped GenericReport instead
 
-The table is declared as dataclasses (:class:`GenericOptions`, :class:`GenericMapping`)
-and read by the validation kit. Before the relay starts (and in ``edge-vis check``),
-:meth:`GenericTranslator.verify` looks every message, query, service and field path up in
-the live catalogue, the profile's own JSIDL included. Field paths start at the message's
-fields: a body that is one record is flattened when decoded, so its record's name is not
-part of the path (``turbidity``, not ``water_quality_rec.turbidity``).
+    [[translators.generic.mappings]]      # a message carrying a file
+    message = "ReportSnapshot"
+    image = { data = "image_file", format = "png", sha256_field = "sha256" }
+
+    [[translators.generic.commands]]      # DDS -> JAUS, only from the operator in control
+    topic = "CameraPointing"
+    message = "SetCameraPointing"
+    service = "urn:example:CameraPod"
+    fields = { pan = "pan", tilt = "tilt" }
+    rate = 2.0                            # Hz, latest wins; default [commands].rate
+    lifespan = 1.0                        # s; default [commands].lifespan
+
+Each mapped topic's type is built from the JSIDL types of its fields
+(:mod:`edge_vis.kit.shapes`): ``vehicle_id`` (key), the fields, ``timestamp_ms``; a command
+topic has ``vehicle_id`` and ``operator_id``. Command values are clamped to the limits the
+JSIDL declares (the codec scales them); the engine gates, throttles and expires them as it
+does every command. An image mapping checks the file against the size and SHA-256 the
+message declares and publishes it as ``ImageProduct`` + ``ImageData`` chunks
+(:mod:`edge_vis.kit.imagery`).
+
+The tables are declared as dataclasses and read by the validation kit. Before the relay
+starts (and in ``edge-vis check``), :meth:`GenericTranslator.verify` looks every message,
+query, service and field path up in the live catalogue, the profile's own JSIDL included.
+Field paths start at the message's fields: a body that is one record is flattened when
+decoded, so its record's name is not part of the path (``turbidity``, not
+``water_quality_rec.turbidity``).
 """
 
 from __future__ import annotations
