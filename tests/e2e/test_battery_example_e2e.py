@@ -16,6 +16,7 @@ import shutil
 import struct
 import sys
 import time
+import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -113,8 +114,9 @@ async def collect(operator: Any, topic: str, vehicle_id: str,
 
 def test_battery_pack_from_jsidl_to_dds(domain_id: int, partition: str,
                                         tmp_path: Path) -> None:
-    from edge_vis.dds.model import GenericReport
-    from edge_vis.dds.topics import TopicKind, TopicRegistry, TopicSpec
+    from edge_vis.catalogue.jsidl import profile_catalogue
+    from edge_vis.dds.topics import TopicRegistry
+    from translators.generic import GenericTranslator
 
     for name in ("BatteryPack.xml", "battery-pack.toml", "relay.toml"):
         shutil.copy(EXAMPLE / name, tmp_path / name)
@@ -127,9 +129,12 @@ def test_battery_pack_from_jsidl_to_dds(domain_id: int, partition: str,
         assert old in text
         text = text.replace(old, new)
     relay_toml.write_text(text)
-    # the operator's side: the topic the mapping publishes, GenericReport-typed
+    # the operator's side: the topic the mapping publishes, typed from the JSIDL
+    generic = GenericTranslator()
+    generic.configure(tomllib.loads(text)["translators"]["generic"])
+    generic.verify(profile_catalogue([EXAMPLE / "BatteryPack.xml"]))
     registry = TopicRegistry.standard()
-    registry.register(TopicSpec("BatteryPack", GenericReport, TopicKind.TELEMETRY))
+    registry.register_all(generic.topic_types, owner="station")
 
     async def run() -> None:
         loop = asyncio.get_running_loop()
@@ -145,12 +150,10 @@ def test_battery_pack_from_jsidl_to_dds(domain_id: int, partition: str,
             assert (ident["name"], ident["vehicle_type"]) == ("Aft pack", "LIFEPO4")
             assert ident["jaus_address"] == "77.1.3"
             report = await collect(operator, "BatteryPack", "BP-0042")
-            assert report["message"] == "ReportBatteryPack"
-            fields = {f["name"]: f for f in report["fields"]}
-            assert fields["voltage_v"]["number"] == pytest.approx(48.2, abs=0.01)
-            assert fields["current_a"]["number"] == pytest.approx(-12.5, abs=0.01)
-            assert fields["state_of_charge_pct"]["number"] == pytest.approx(81.0, abs=0.4)
-            assert fields["state"]["number"] == 2 and "temperature_c" not in fields
+            assert report["voltage_v"] == pytest.approx(48.2, abs=0.01)
+            assert report["current_a"] == pytest.approx(-12.5, abs=0.01)
+            assert report["state_of_charge_pct"] == pytest.approx(81.0, abs=0.4)
+            assert report["state"] == 2 and report.get("temperature_c") is None  # not sent
             # found without JAUS discovery and asked for its report by polling: the pack
             # lists no Events service
             assert peer.asked(0xE0C1) and not peer.asked(0x01F0)  # CreateEvent
