@@ -120,7 +120,8 @@ def test_paths_and_names() -> None:
 
 # -- removing any one translator leaves the others working -------------------------------
 
-ALL = ("core", "environment", "generic", "iop", "manipulator", "mobility", "ugv", "uuv")
+ALL = ("core", "emergency", "environment", "generic", "iop", "manipulator", "mobility", "ugv",
+       "uuv")
 
 
 def _representative(name: str) -> tuple[str, dict[str, Any], str]:
