@@ -130,7 +130,7 @@ def _representative(name: str) -> tuple[str, dict[str, Any], str]:
         return "ReportStatus", {"status": 1, "reserved": 0}, "VehicleStatus"
     if name == "mobility":
         return "ReportGlobalPose", {"latitude": 1.0, "longitude": 2.0}, "GlobalPose"
-    if name == "generic":
+    if name in ("generic", "emergency"):  # nothing of their own from JAUS
         return "", {}, ""
     cls = {t.name: type(t) for t in TranslationManager.from_selection(
         TranslatorSelection((name,))).translators}[name]
