@@ -380,7 +380,8 @@ class SimVehicle:
     def _set_authority(self, comp: Component, source: JausAddress, fields: dict[str, Any],
                        now: float) -> list[Action]:
         code = fields["authority_code"]
-        if comp.state != EMERGENCY and comp.controller == source and comp.default_authority <= code <= comp.authority:
+        if (comp.state != EMERGENCY and comp.controller == source
+                and comp.default_authority <= code <= comp.authority):
             comp.authority = code
         return []
 
