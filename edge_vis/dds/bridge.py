@@ -445,8 +445,9 @@ class DdsBridge:
     def _deliver_forever(self) -> None:
         while not self._closed:
             try:
+                # watched writers are checked often; an idle relay sleeps
                 self._waitset.wait(duration(seconds=WRITER_CHECK_PERIOD
-                                            if self._on_writer_gone else 1))
+                                            if self._writers_of else 1))
             except DDSException:
                 if self._closed:
                     return
