@@ -21,6 +21,7 @@ from typing import Any
 from cyclonedds.idl import IdlStruct
 
 from edge_vis.dds import model
+from edge_vis.dds.runtime_types import struct_type
 from edge_vis.errors import PluginConflictError
 
 
@@ -208,8 +209,11 @@ class TopicRegistry:
 
 def from_declaration(decl: Any) -> TopicSpec:
     """The :class:`TopicSpec` of a translator's topic declaration (``name``,
-    ``type_name`` of :mod:`edge_vis.dds.model`, ``kind``); ValueError names what is wrong."""
-    cls = getattr(model, str(getattr(decl, "type_name", "")), None)
+    ``type_name`` of :mod:`edge_vis.dds.model`, ``kind``), or of a type built at run time
+    from its ``shape`` (:mod:`edge_vis.dds.runtime_types`); ValueError names what is wrong."""
+    shape = getattr(decl, "shape", None)
+    cls = struct_type(shape) if shape is not None else \
+        getattr(model, str(getattr(decl, "type_name", "")), None)
     if not (isinstance(cls, type) and issubclass(cls, IdlStruct)):
         raise ValueError(f"topic {getattr(decl, 'name', decl)!r}: "
                          f"{getattr(decl, 'type_name', None)!r} is not a type of the data model")

@@ -10,6 +10,8 @@ recorded on the vehicle's arbitration so translators can report it.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from edge_vis.engine.command_slots import CommandSlot
 from edge_vis.engine.state import Changed, EngineState
 from edge_vis.engine.vehicle import Vehicle
@@ -49,7 +51,12 @@ class Commands:
             return
         slot = vehicle.commands.get(command.kind)
         if slot is None:
-            slot = vehicle.commands[command.kind] = CommandSlot(state.profile.commands)
+            profile = state.profile.commands
+            if command.rate is not None or command.lifespan is not None:
+                # a command mapping's own throttle replaces the profile's for its kind
+                profile = replace(profile, rate=command.rate or profile.rate,
+                                  lifespan=command.lifespan or profile.lifespan)
+            slot = vehicle.commands[command.kind] = CommandSlot(profile)
         slot.offer(command, now)
 
     def can_send(self, vehicle: Vehicle, kind: str) -> bool:

@@ -41,6 +41,7 @@ from edge_vis.kit.contract import (
     VehicleView,
     derive_vehicle_id,
 )
+from edge_vis.kit.imagery import CHUNK_BYTES, image_chunks, publish_image
 from edge_vis.kit.rules import (
     NAN,
     Build,
@@ -70,11 +71,12 @@ from edge_vis.kit.rules import (
 from edge_vis.schema import read_table, setting
 
 __all__ = [
-    "NAN", "STATUS_NAMES", "Action", "Build", "Command", "CommandRule", "Computed",
-    "ConfigError", "Const", "DeclareVehicle", "Each", "EmergencyRequest", "From",
+    "CHUNK_BYTES", "NAN", "STATUS_NAMES", "Action", "Build", "Command", "CommandRule",
+    "Computed", "ConfigError", "Const", "DeclareVehicle", "Each", "EmergencyRequest", "From",
     "JausAddress", "Publish", "Put",
     "PutEach", "ReportRule", "ReportSpec", "RuleTranslator", "SendMessage", "ShutdownComplete",
     "Spec", "TopicDecl", "Translator", "TranslatorContext", "VehicleView", "clamp", "code_of",
     "declarations", "derive_vehicle_id", "describe_rules", "extract", "flags", "get_path",
-    "label", "number", "path_problem", "put", "read_table", "set_path", "setting",
+    "image_chunks", "label", "number", "path_problem", "publish_image", "put", "read_table",
+    "set_path", "setting",
 ]

@@ -69,6 +69,8 @@ class Command:
     EMERGENCY/FAILURE and, when the operator's commands of this kind stop for longer
     than the dead-man timeout, the engine sends ``stop`` itself. ``service_set`` names the
     message set of ``name`` when two sets use that name (see :class:`SendMessage`).
+    ``rate`` (Hz) and ``lifespan`` (s), when given, replace the profile's ``[commands]``
+    throttle for this kind (a profile's command mapping sets them per command).
     """
 
     vehicle_id: str
@@ -80,6 +82,8 @@ class Command:
     stop: Mapping[str, Any] | None = None
     priority: int = PRIORITY_STANDARD
     service_set: str | None = None
+    rate: float | None = None
+    lifespan: float | None = None
 
 
 @dataclass(frozen=True, slots=True)

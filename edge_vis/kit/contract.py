@@ -70,11 +70,16 @@ class TopicDecl:
     """A DDS topic a translator adds: ``name`` carries the data-model type ``type_name``
     (``"GenericReport"``) with the QoS of ``kind`` (``telemetry``, ``state``, ``command``,
     ``product`` or ``bulk``). A declaration, so the kit needs no DDS to describe it; the
-    DDS side resolves the type when the relay opens its topics."""
+    DDS side resolves the type when the relay opens its topics.
+
+    With ``shape`` (a :class:`~edge_vis.kit.shapes.StructShape`) the type is not one of the
+    model's: the DDS side builds it at run time from the shape, and ``type_name`` is its
+    scoped IDL name (a profile mapping's typed topic, ``edge_vis::profile::CameraStatus``)."""
 
     name: str
     type_name: str
     kind: str = "telemetry"
+    shape: Any = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -159,7 +159,8 @@ class CommandRule:
     when given, makes it a motion command (dead-man stop, refused in emergency): the stop
     fields, or a function of the command's fields giving them (a zero per joint).
     ``service_set`` names the message set of ``message`` when two sets use the name
-    (``ExecuteList``): the command is then encoded with that set's code."""
+    (``ExecuteList``): the command is then encoded with that set's code. ``rate`` (Hz) and
+    ``lifespan`` (s) replace the profile's ``[commands]`` throttle for this kind."""
 
     topic: str
     message: str
@@ -170,6 +171,8 @@ class CommandRule:
     stop: Mapping[str, Any] | Callable[[Mapping[str, Any]], Mapping[str, Any]] | None = None
     doc: str = ""
     service_set: str | None = None
+    rate: float | None = None
+    lifespan: float | None = None
 
 
 # ---------------------------------------------------------------------------------- helpers
@@ -465,7 +468,7 @@ class RuleTranslator(Translator):
         return Command(str(sample.get("vehicle_id", "")), str(sample.get("operator_id", "")),
                        rule.kind, rule.message, fields, rule.service,
                        stop=dict(stop) if stop is not None else None,
-                       service_set=rule.service_set)
+                       service_set=rule.service_set, rate=rule.rate, lifespan=rule.lifespan)
 
     # -- the mapping table -------------------------------------------------------------------
 
