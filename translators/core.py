@@ -6,7 +6,8 @@ Publishes, from the engine's view of each vehicle:
 * ``VehicleStatus`` when it comes online, goes offline, on every ReportStatus and every
   ReportHeartbeatPulse (so ``last_seen_ms`` moves while the vehicle is alive);
 * ``ControlStatus`` when operator arbitration or JAUS access control changes, including
-  refused commands (``rejected_commands``, ``last_rejection``).
+  refused commands (``rejected_commands``, ``last_rejection``);
+* both when an emergency stop is set, confirmed or cleared (``emergency``).
 """
 
 from __future__ import annotations
@@ -46,6 +47,9 @@ def status_sample(view: VehicleView) -> dict[str, Any]:
         "link": view.link,
         "online": view.online,
         "last_seen_ms": view.last_seen_ms,
+        "emergency": view.emergency,
+        "emergency_operator": view.emergency_operator,
+        "emergency_reason": view.emergency_reason,
     }
 
 
@@ -64,6 +68,7 @@ def control_sample(view: VehicleView, timestamp_ms: int) -> dict[str, Any]:
         "rejected_commands": view.rejected_commands,
         "last_rejection": view.last_rejection,
         "timestamp_ms": timestamp_ms,
+        "emergency": view.emergency,
     }
 
 
@@ -91,6 +96,9 @@ class CoreTranslator(Translator):
             return [Publish("VehicleStatus", status_sample(view))]
         if change == "control":
             return [Publish("ControlStatus", control_sample(view, ctx.timestamp_ms))]
+        if change == "emergency":
+            return [Publish("VehicleStatus", status_sample(view)),
+                    Publish("ControlStatus", control_sample(view, ctx.timestamp_ms))]
         return []
 
     def describe(self) -> list[dict[str, Any]]:

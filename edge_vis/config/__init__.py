@@ -23,6 +23,7 @@ from edge_vis.config.deployment import (
     ControlProfile,
     DdsProfile,
     DiscoveryProfile,
+    EmergencyProfile,
     EventsProfile,
     LimitsProfile,
     LinkProfile,
@@ -48,6 +49,7 @@ from edge_vis.config.vehicles import ComponentProfile, ServiceProfile, VehiclePr
 __all__ = [
     "DEFAULT_MINIMUM_SHARE", "DEFAULT_REPORT_PRIORITY", "AccessProfile", "BulkProfile",
     "CommandProfile", "ComponentProfile", "ControlProfile", "DdsProfile", "DiscoveryProfile",
+    "EmergencyProfile",
     "EventsProfile", "LimitsProfile", "LinkProfile", "OperatorEntry", "OperatorPolicy",
     "RelayProfile", "ReportRate", "ServiceProfile", "TranslatorSelection", "VehicleProfile",
     "default_profile_path", "from_mapping", "link_problems", "load_default_profile",

@@ -34,6 +34,8 @@ class TopicKind(enum.Enum):
     """Slowly changing state: every reader, including late joiners, must see the latest."""
     COMMAND = "command"
     """Operator to vehicle: must arrive, must not act late."""
+    EMERGENCY = "emergency"
+    """An emergency stop: must arrive, however late; never dropped for its age."""
     PRODUCT = "product"
     """Data products (image metadata): every one must reach every reader, even late ones."""
     BULK = "bulk"
@@ -64,7 +66,7 @@ class TopicSpec:
     @property
     def inbound(self) -> bool:
         """True for topics the relay reads (commands from operators)."""
-        return self.kind is TopicKind.COMMAND
+        return self.kind is TopicKind.COMMAND or self.kind is TopicKind.EMERGENCY
 
     @property
     def typename(self) -> str:
@@ -80,6 +82,7 @@ _STANDARD_KINDS: dict[type[IdlStruct], TopicKind] = {
     model.Velocity: TopicKind.TELEMETRY,
     model.ControlRequest: TopicKind.COMMAND,
     model.ControlStatus: TopicKind.STATE,
+    model.EmergencyCommand: TopicKind.EMERGENCY,
     model.WrenchEffortCommand: TopicKind.COMMAND,
     model.VelocityCommand: TopicKind.COMMAND,
     model.WaypointPlan: TopicKind.COMMAND,

@@ -40,7 +40,8 @@ class Commands:
             reason = (f"{command.name} from {command.operator_id} refused: control held by "
                       f"{holder}")
         elif command.stop is not None and vehicle.in_emergency():
-            reason = f"{command.name} refused: vehicle in {vehicle.state_name()}"
+            mode = "EMERGENCY (emergency stop)" if vehicle.estop else vehicle.state_name()
+            reason = f"{command.name} refused: vehicle in {mode}"
         elif not vehicle.providers(command.service):
             reason = f"{command.name} refused: no component offers {command.service}"
         if reason:

@@ -8,8 +8,8 @@ A translator plugin imports from here and from nothing else of edge-vis::
   :class:`TranslatorContext` (time, relay, vehicles, live catalogue), :class:`VehicleView`,
   :class:`ReportSpec`, :func:`derive_vehicle_id`, :class:`JausAddress`;
 * the actions a hook returns (:mod:`edge_vis.kit.actions`): :class:`Publish`,
-  :class:`Command`, :class:`DeclareVehicle` (the engine's own :class:`SendMessage` and
-  :class:`ShutdownComplete` live beside them);
+  :class:`Command`, :class:`DeclareVehicle`, :class:`EmergencyRequest` (the engine's
+  own :class:`SendMessage` and :class:`ShutdownComplete` live beside them);
 * the rule vocabulary (:mod:`edge_vis.kit.rules`): report and command tables that
   :class:`RuleTranslator` runs and ``edge-vis mappings`` prints, and :func:`path_problem`
   and :func:`resolve_path` to check a field path against a message definition;
@@ -27,6 +27,7 @@ from edge_vis.kit.actions import (
     Action,
     Command,
     DeclareVehicle,
+    EmergencyRequest,
     Publish,
     SendMessage,
     ShutdownComplete,
@@ -71,8 +72,9 @@ from edge_vis.kit.rules import (
 from edge_vis.schema import read_table, setting
 
 __all__ = [
-    "CHUNK_BYTES", "NAN", "STATUS_NAMES", "Action", "Build", "Command", "CommandRule", "Computed",
-    "ConfigError", "Const", "DeclareVehicle", "Each", "From", "JausAddress", "Publish", "Put",
+    "CHUNK_BYTES", "NAN", "STATUS_NAMES", "Action", "Build", "Command", "CommandRule",
+    "Computed", "ConfigError", "Const", "DeclareVehicle", "Each", "EmergencyRequest", "From",
+    "JausAddress", "Publish", "Put",
     "PutEach", "ReportRule", "ReportSpec", "RuleTranslator", "SendMessage", "ShutdownComplete",
     "Spec", "TopicDecl", "Translator", "TranslatorContext", "VehicleView", "clamp", "code_of",
     "declarations", "derive_vehicle_id", "describe_rules", "extract", "flags", "get_path",

@@ -109,6 +109,11 @@ class VehicleView:
     rejected_commands: int = 0
     last_rejection: str = ""
     notes: tuple[str, ...] = ()
+    #: an emergency stop is in force: set through the relay and not yet cleared, or a
+    #: component reports EMERGENCY; who set it through the relay and why
+    emergency: bool = False
+    emergency_operator: str = ""
+    emergency_reason: str = ""
 
 
 @dataclass(frozen=True, slots=True)
@@ -200,8 +205,9 @@ class Translator(ABC):  # noqa: B024 - every hook has a harmless default
         """The engine's view of ``ctx.vehicle`` changed.
 
         ``change`` is one of ``"identified"`` (identity or services learnt),
-        ``"online"``, ``"offline"``, ``"status"`` (management state) and ``"control"``
-        (operator arbitration or JAUS access control).
+        ``"online"``, ``"offline"``, ``"status"`` (management state), ``"control"``
+        (operator arbitration or JAUS access control) and ``"emergency"`` (an emergency
+        stop set, confirmed or cleared through the relay).
         """
         return []
 
