@@ -504,7 +504,7 @@ class JsidlModel:
             if only.tag in ("record", "sequence") and not optional:
                 rec = self.type_of(only, oscope)
                 assert isinstance(rec, Record)
-                return Record(rec.fields, rec.pv, name)
+                return Record(rec.fields, rec.pv, name, flattened=snake_case(only.name))
         rec = _composite(self, body, bscope)
         return Record(rec.fields, rec.pv, name)
 

@@ -22,7 +22,7 @@ NAME = "messages"
 HELP = "list the known JAUS messages (code, name, message set, services)"
 
 #: attributes that do not change the bytes on the wire or the decoded keys
-_COSMETIC = frozenset({"labels", "ranges", "units", "jsidl_name", "doc"})
+_COSMETIC = frozenset({"labels", "ranges", "units", "jsidl_name", "doc", "flattened"})
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

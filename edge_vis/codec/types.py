@@ -208,6 +208,9 @@ class Record:
     fields: tuple[Field, ...]
     pv: Int | None = None
     name: str = ""
+    #: a message body that was one JSIDL record: that record's name, so a path qualified by
+    #: it can be told from a misspelt one (not part of the wire layout, so not compared)
+    flattened: str = field(default="", compare=False)
 
 
 @dataclass(frozen=True, slots=True)

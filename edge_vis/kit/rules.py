@@ -209,13 +209,18 @@ def resolve_path(body: Record, path: str) -> tuple[str, str]:
     Paths start at the body's fields. A body that is one record is flattened when
     decoded, so a path qualified by that record's name (``"pack_rec.pack_id"``, as the
     JSIDL nests it) is read as the path into the flattened fields (``"pack_id"``): both
-    forms name the same field.
+    forms name the same field. Where the catalogue knows that record's name (messages read
+    from JSIDL), a first step naming another record is refused, not skipped.
     """
     steps = path.split(".")
     problem = _path_problem(body, steps, [])
     if problem and len(steps) > 1 and steps[0] and \
             not any(f.name == steps[0] for f in body.fields) and \
             not _path_problem(body, steps[1:], []):
+        if body.flattened and steps[0] != body.flattened:
+            return path, (f"no field or record {steps[0]!r} in the message (its body is the "
+                          f"record {body.flattened!r}, whose fields are read as "
+                          f"{steps[1]!r} or {body.flattened}.{steps[1]})")
         return ".".join(steps[1:]), ""
     return path, problem
 

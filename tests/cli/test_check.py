@@ -175,6 +175,9 @@ fields = { ph = "water_quality_rec.ph", turbidity = "turbidity" }
     ('message = "ReportWaterQuality"\nfields = { ph = "water_quality_rec.nothing" }',
      "fields.ph", "no field 'water_quality_rec' in the message (fields: turbidity, ph, "
      "station)"),
+    ('message = "ReportWaterQuality"\nfields = { ph = "water_qualty_rec.ph" }', "fields.ph",
+     "no field or record 'water_qualty_rec' in the message (its body is the record "
+     "'water_quality_rec'"),
     ('message = "ReportWaterQuality"\nquery = "QueryWaterQuality"\nservice = '
      '"urn:example:WaterQuality"\nquery_fields = { presence_vector = 3 }',
      "query_fields.presence_vector",
