@@ -28,6 +28,7 @@ from edge_vis.config.deployment import (
     LinkProfile,
     OperatorEntry,
     RelayProfile,
+    TimeProfile,
     TranslatorSelection,
 )
 from edge_vis.config.loader import (
@@ -49,7 +50,7 @@ __all__ = [
     "DEFAULT_MINIMUM_SHARE", "DEFAULT_REPORT_PRIORITY", "AccessProfile", "BulkProfile",
     "CommandProfile", "ComponentProfile", "ControlProfile", "DdsProfile", "DiscoveryProfile",
     "EventsProfile", "LimitsProfile", "LinkProfile", "OperatorEntry", "OperatorPolicy",
-    "RelayProfile", "ReportRate", "ServiceProfile", "TranslatorSelection", "VehicleProfile",
+    "RelayProfile", "TimeProfile", "ReportRate", "ServiceProfile", "TranslatorSelection", "VehicleProfile",
     "default_profile_path", "from_mapping", "link_problems", "load_default_profile",
     "load_profile", "load_vehicle_profile", "read_deployment", "read_profile_file", "read_toml",
 ]

@@ -67,6 +67,16 @@ class ControlAction(IdlEnum, typename="edge_vis::ControlAction"):
     RELEASE = 1
 
 
+class ManagementCommandType(IdlEnum, typename="edge_vis::ManagementCommandType"):
+    """A JAUS Management command (prefixed: IDL enumerators share the module's scope;
+    dicts may leave the prefix out, ``"STANDBY"``)."""
+
+    MGMT_SHUTDOWN = 0
+    MGMT_STANDBY = 1
+    MGMT_RESUME = 2
+    MGMT_RESET = 3
+
+
 class Frame(IdlEnum, typename="edge_vis::Frame"):
     """Reference frame of waypoints: WGS 84 (GLOBAL) or the vehicle's local frame (LOCAL)."""
 
@@ -188,8 +198,20 @@ class VehicleStatus(IdlStruct, typename="edge_vis::VehicleStatus"):
 
 
 @dataclass
+class ComponentHolder(IdlStruct, typename="edge_vis::ComponentHolder"):
+    """Who controls one component (JAUS address ``S.N.C``; ``controller`` empty: nobody)."""
+
+    component: str = ""
+    controller: str = ""
+    authority: uint8 = 0
+    current_authority: uint8 = 0
+    is_relay: bool = False
+
+
+@dataclass
 class ControlStatus(IdlStruct, typename="edge_vis::ControlStatus"):
-    """JAUS access control of a vehicle: which operator holds it through the relay."""
+    """JAUS access control of a vehicle: which operator holds it through the relay, and
+    who controls each of its components (whether or not through this relay)."""
 
     vehicle_id: str
     key("vehicle_id")
@@ -198,6 +220,22 @@ class ControlStatus(IdlStruct, typename="edge_vis::ControlStatus"):
     authority: uint8 = 0
     rejected_commands: uint32 = 0
     last_rejection: str = ""
+    timestamp_ms: int64 = 0
+    holders: sequence[ComponentHolder] = field(default_factory=list)
+
+
+@dataclass
+class VehicleClock(IdlStruct, typename="edge_vis::VehicleClock"):
+    """A vehicle's clock against the relay's (JAUS Time): ``offset_ms`` = vehicle minus
+    relay, measured over a round trip of ``round_trip_ms``."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    component: str = ""
+    offset_ms: float64 = NAN
+    round_trip_ms: float64 = NAN
+    set_time_sent: uint32 = 0
+    note: str = ""
     timestamp_ms: int64 = 0
 
 
@@ -367,6 +405,18 @@ class ControlRequest(IdlStruct, typename="edge_vis::ControlRequest"):
     operator_id: str
     action: ControlAction
     authority: uint8 = 0
+
+
+@dataclass
+class ManagementCommand(IdlStruct, typename="edge_vis::ManagementCommand"):
+    """Shutdown, Standby, Resume or Reset a vehicle (every Management component, or the
+    one ``component`` names as ``S.N.C``); needs the operator to hold the vehicle."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    command: ManagementCommandType
+    component: str = ""
 
 
 @dataclass
@@ -947,5 +997,7 @@ STRUCTS: tuple[type[IdlStruct], ...] = (
     AccelerationLimitCommand,
     GeomagneticProperty,
     PoseCommand,
+    ManagementCommand,
+    VehicleClock,
 )
 """Every top-level type of the standard model; each is carried by the topic of its name."""

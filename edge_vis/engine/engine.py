@@ -18,7 +18,8 @@ publish) and re-arms its timer at :meth:`Engine.next_deadline`::
 Per vehicle (one JAUS subsystem) the engine keeps, once for all translators: the
 component/service tree (:mod:`~edge_vis.engine.finder`), liveness and the silence timer
 (:mod:`~edge_vis.engine.liveness`), JAUS access control and readiness of the commanded
-components (:mod:`~edge_vis.engine.access`), event subscriptions with polling fallback
+components (:mod:`~edge_vis.engine.access`), who else holds them (:mod:`~edge_vis.engine.holders`),
+the vehicles' clocks (:mod:`~edge_vis.engine.clocks`), event subscriptions with polling fallback
 (:mod:`~edge_vis.engine.reports`), command throttles and the dead-man
 (:mod:`~edge_vis.engine.commands`) and operator arbitration
 (:mod:`~edge_vis.engine.control_requests`). Report rates follow the bandwidth plan
@@ -45,9 +46,11 @@ from typing import Any
 from edge_vis.bandwidth.demands import FleetPlanner
 from edge_vis.config import RelayProfile
 from edge_vis.engine.access import Access
+from edge_vis.engine.clocks import Clocks
 from edge_vis.engine.commands import Commands
 from edge_vis.engine.control_requests import ControlRequests
 from edge_vis.engine.finder import Finder
+from edge_vis.engine.holders import Holders
 from edge_vis.engine.liveness import LIVENESS, MANAGEMENT, STATUS_EVERY, Liveness
 from edge_vis.engine.manager import TranslationManager
 from edge_vis.engine.rates import Rates
@@ -100,8 +103,11 @@ class Engine:
         self._finder = Finder(state, self._changed, self._liveness)
         self._commands = Commands(state, self._changed)
         self._control_requests = ControlRequests(state, self._access, self._changed)
+        self._holders = Holders(state, self._changed)
+        self._clocks = Clocks(state, self._access, self._changed)
         self._timer_pass = TimerPass(state, self._finder, self._liveness, self._access,
-                                    self._reports, self._commands, self._rates)
+                                    self._reports, self._commands, self._rates,
+                                    (self._holders.poll, self._clocks.poll))
         #: the JAUS messages the engine itself handles, by name
         self._handlers: dict[str, Handler] = {
             "ReportServices": self._finder.on_services,
@@ -110,6 +116,9 @@ class Engine:
             "RejectControl": self._access.on_reject,
             "ReportTimeout": self._access.on_timeout,
             "ReportStatus": self._access.on_status,
+            "ReportControl": self._holders.on_control,
+            "ReportAuthority": self._holders.on_authority,
+            "ReportTime": self._clocks.on_time,
             "ConfirmEventRequest": self._reports.on_confirm,
             "RejectEventRequest": self._reports.on_reject,
             "ReportEventTimeout": self._reports.on_event_timeout,

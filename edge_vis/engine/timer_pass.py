@@ -12,7 +12,7 @@ releases control, then reports ShutdownComplete once all are answered or timed o
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Sequence
 
 from edge_vis.engine.access import Access
 from edge_vis.engine.commands import Commands
@@ -31,7 +31,8 @@ class TimerPass:
     """Runs the timer pass over the engine's parts and tracks the next deadline."""
 
     def __init__(self, state: EngineState, finder: Finder, liveness: Liveness,
-                 access: Access, reports: Reports, commands: Commands, rates: Rates) -> None:
+                 access: Access, reports: Reports, commands: Commands, rates: Rates,
+                 polls: Sequence[Callable[[Vehicle, float], None]] = ()) -> None:
         self._state = state
         self._finder = finder
         self._liveness = liveness
@@ -39,6 +40,8 @@ class TimerPass:
         self._reports = reports
         self._commands = commands
         self._rates = rates
+        #: further per-vehicle duties (holder queries, clocks), each due by its own fields
+        self._polls = tuple(polls)
         self._vehicle_due: float | None = None
         self._due_valid = False
         self._vehicle_count = 0
@@ -116,6 +119,8 @@ class TimerPass:
             if vehicle.next_liveness is not None and now >= vehicle.next_liveness:
                 self._liveness.probe(vehicle, now)
         self._access.poll(vehicle, now)
+        for poll in self._polls:
+            poll(vehicle, now)
         self._reports.poll(vehicle, now)
         if not stopping:
             self._commands.pump(vehicle, now)
@@ -130,6 +135,9 @@ class TimerPass:
             if not state.shutting_down:
                 times.append(v.next_liveness)
                 times.append(v.next_services_query)
+                if v.online:
+                    times.append(v.next_holder_query)
+                    times.append(v.next_time_query)
                 if v.online and v.last_seen is not None:
                     times.append(v.last_seen + silence + 1e-6)
                 for key, slot in v.commands.items():

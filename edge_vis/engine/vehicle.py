@@ -15,7 +15,7 @@ from edge_vis.engine.control import ComponentControl
 from edge_vis.engine.discovery import Service, ServiceDiscovery, with_inherited
 from edge_vis.engine.subscriptions import Subscription
 from edge_vis.jaus.address import JausAddress
-from edge_vis.kit.contract import STATUS_NAMES
+from edge_vis.kit.contract import STATUS_NAMES, ClockView, HolderView
 
 #: Most severe first: the vehicle's state is the most severe of its components'.
 _SEVERITY = (5, 4, 3, 0, 2, 1)
@@ -50,6 +50,20 @@ class Vehicle:
     event_timeout_asked: set[JausAddress] = field(default_factory=set)
     request_counter: int = 0
     times_lost: int = 0
+    #: component -> who controls it, as it last reported (ReportControl, ReportAuthority)
+    holders: dict[JausAddress, HolderView] = field(default_factory=dict)
+    next_holder_query: float | None = None
+    #: what the relay's control looked like when the holders were last asked
+    holders_asked_for: tuple[object, ...] | None = None
+    #: the latest clock reading, when a QueryTime went out to which component
+    clock: ClockView | None = None
+    time_asked: dict[JausAddress, float] = field(default_factory=dict)
+    next_time_query: float | None = None
+    #: ``times_lost`` when the clock was first read since found (SetTime is decided then)
+    clock_epoch: int = -1
+    #: components the relay holds control of for an errand of its own (SetTime)
+    errands: set[JausAddress] = field(default_factory=set)
+    set_time_sent: int = 0
 
     def __post_init__(self) -> None:
         self.discovery.label = self.vehicle_id

@@ -85,6 +85,8 @@ class Views:
             rejected_commands=vehicle.arbitration.rejected_commands,
             last_rejection=vehicle.arbitration.last_rejection,
             notes=notes,
+            holders=tuple(h for _a, h in sorted(vehicle.holders.items())),
+            clock=vehicle.clock,
         )
 
     def context(self, vehicle: Vehicle | None, now: float,

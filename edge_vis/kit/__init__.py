@@ -33,6 +33,8 @@ from edge_vis.kit.actions import (
 )
 from edge_vis.kit.contract import (
     STATUS_NAMES,
+    ClockView,
+    HolderView,
     ReportSpec,
     TopicDecl,
     Translator,
@@ -69,7 +71,7 @@ from edge_vis.kit.rules import (
 from edge_vis.schema import read_table, setting
 
 __all__ = [
-    "NAN", "STATUS_NAMES", "Action", "Build", "Command", "CommandRule", "Computed",
+    "NAN", "STATUS_NAMES", "Action", "Build", "ClockView", "HolderView", "Command", "CommandRule", "Computed",
     "ConfigError", "Const", "DeclareVehicle", "Each", "From", "JausAddress", "Publish", "Put",
     "PutEach", "ReportRule", "ReportSpec", "RuleTranslator", "SendMessage", "ShutdownComplete",
     "Spec", "TopicDecl", "Translator", "TranslatorContext", "VehicleView", "clamp", "code_of",

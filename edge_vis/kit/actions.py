@@ -65,6 +65,11 @@ class Command:
     EMERGENCY/FAILURE and, when the operator's commands of this kind stop for longer
     than the dead-man timeout, the engine sends ``stop`` itself. ``service_set`` names the
     message set of ``name`` when two sets use that name (see :class:`SendMessage`).
+
+    ``needs_ready``: False for commands that need control but not a READY component
+    (Management's Standby, Resume, Shutdown, Reset). ``component`` sends it to that one
+    component (it must offer ``service``); else ``every_provider`` sends it to every
+    component offering ``service``, and by default it goes to the first one.
     """
 
     vehicle_id: str
@@ -76,6 +81,9 @@ class Command:
     stop: Mapping[str, Any] | None = None
     priority: int = PRIORITY_STANDARD
     service_set: str | None = None
+    needs_ready: bool = True
+    component: JausAddress | None = None
+    every_provider: bool = False
 
 
 @dataclass(frozen=True, slots=True)

@@ -44,6 +44,7 @@ from typing import Any, ClassVar, Union
 
 from edge_vis.codec.types import BitField, List, Record, VarFormat, Variant
 from edge_vis.kit.actions import Action, Command, Publish
+from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.contract import ReportSpec, Translator, TranslatorContext
 
 log = logging.getLogger(__name__)
@@ -159,7 +160,10 @@ class CommandRule:
     when given, makes it a motion command (dead-man stop, refused in emergency): the stop
     fields, or a function of the command's fields giving them (a zero per joint).
     ``service_set`` names the message set of ``message`` when two sets use the name
-    (``ExecuteList``): the command is then encoded with that set's code."""
+    (``ExecuteList``): the command is then encoded with that set's code.
+    ``needs_ready``/``every_provider`` are the :class:`~edge_vis.kit.actions.Command`'s;
+    ``component``, when given, names the DDS member holding a JAUS address (``S.N.C``)
+    the command is sent to instead (empty: the default destination)."""
 
     topic: str
     message: str
@@ -170,6 +174,9 @@ class CommandRule:
     stop: Mapping[str, Any] | Callable[[Mapping[str, Any]], Mapping[str, Any]] | None = None
     doc: str = ""
     service_set: str | None = None
+    needs_ready: bool = True
+    every_provider: bool = False
+    component: str = ""
 
 
 # ---------------------------------------------------------------------------------- helpers
@@ -457,6 +464,8 @@ class RuleTranslator(Translator):
                 present, value = put(spec, sample)
                 if present:
                     set_path(fields, path, value)
+            target = str(sample.get(rule.component) or "") if rule.component else ""
+            component = JausAddress.parse(target) if target else None
         except (ValueError, TypeError) as exc:
             log.warning("%s sample for %s not translated to %s: %s", rule.topic,
                         sample.get("vehicle_id"), rule.message, exc)
@@ -465,7 +474,8 @@ class RuleTranslator(Translator):
         return Command(str(sample.get("vehicle_id", "")), str(sample.get("operator_id", "")),
                        rule.kind, rule.message, fields, rule.service,
                        stop=dict(stop) if stop is not None else None,
-                       service_set=rule.service_set)
+                       service_set=rule.service_set, needs_ready=rule.needs_ready,
+                       component=component, every_provider=rule.every_provider)
 
     # -- the mapping table -------------------------------------------------------------------
 

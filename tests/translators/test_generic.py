@@ -120,7 +120,8 @@ def test_paths_and_names() -> None:
 
 # -- removing any one translator leaves the others working -------------------------------
 
-ALL = ("core", "environment", "generic", "iop", "manipulator", "mobility", "ugv", "uuv")
+ALL = ("core", "environment", "generic", "iop", "management", "manipulator", "mobility", "ugv",
+       "uuv")
 
 
 def _representative(name: str) -> tuple[str, dict[str, Any], str]:
@@ -129,7 +130,7 @@ def _representative(name: str) -> tuple[str, dict[str, Any], str]:
         return "ReportStatus", {"status": 1, "reserved": 0}, "VehicleStatus"
     if name == "mobility":
         return "ReportGlobalPose", {"latitude": 1.0, "longitude": 2.0}, "GlobalPose"
-    if name == "generic":
+    if name in ("generic", "management"):  # no report rules (management: commands, clock)
         return "", {}, ""
     cls = {t.name: type(t) for t in TranslationManager.from_selection(
         TranslatorSelection((name,))).translators}[name]
