@@ -153,7 +153,7 @@ def _civil_from_days(days: int) -> tuple[int, int, int]:
 
 def time_fields(epoch: float) -> dict[str, Any]:
     """SetTime/ReportTime fields (UTC TimeRec: time and date) for ``epoch`` seconds."""
-    ms_total = int(round(epoch * 1000))
+    ms_total = round(epoch * 1000)
     days, ms_of_day = divmod(ms_total, 86_400_000)
     year, month, day = _civil_from_days(days)
     seconds, ms = divmod(ms_of_day, 1000)

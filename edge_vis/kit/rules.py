@@ -43,8 +43,8 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar, Union
 
 from edge_vis.codec.types import BitField, List, Record, VarFormat, Variant
-from edge_vis.kit.actions import Action, Command, Publish
 from edge_vis.jaus.address import JausAddress
+from edge_vis.kit.actions import Action, Command, Publish
 from edge_vis.kit.contract import ReportSpec, Translator, TranslatorContext
 
 log = logging.getLogger(__name__)

@@ -59,7 +59,7 @@ class ContestedRobot:
         self.controller, self.authority, self.status = None, self.default_authority, STANDBY
 
     def clock(self) -> dt.datetime:
-        return dt.datetime.fromtimestamp(time.time() + self.clock_offset, tz=dt.timezone.utc)
+        return dt.datetime.fromtimestamp(time.time() + self.clock_offset, tz=dt.UTC)
 
     def _lose_control(self) -> list[Reply]:
         old, self.controller = self.controller, None
@@ -146,7 +146,7 @@ class ContestedRobot:
         elif name == "SetTime" and controller:
             s, d = fields["time_stamp"], fields["date_stamp"]
             new = dt.datetime(2000 + d["year"], d["month"], s["day"], s["hour"], s["minutes"],
-                              s["seconds"], s["milliseconds"] * 1000, tzinfo=dt.timezone.utc)
+                              s["seconds"], s["milliseconds"] * 1000, tzinfo=dt.UTC)
             self.clock_offset += (new - self.clock()).total_seconds()
         return out
 

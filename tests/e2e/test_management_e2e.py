@@ -13,12 +13,12 @@ from collections.abc import Callable
 from typing import Any
 
 import pytest
+from discovery_peers import UdpPeer
 
 from edge_vis.config import from_mapping
 from edge_vis.jaus.address import JausAddress
 from edge_vis.shell.relay import Runtime
 
-from discovery_peers import UdpPeer
 from .control_peers import FOREIGN, READY, SHUTDOWN, STANDBY, ContestedRobot
 
 pytestmark = pytest.mark.dds

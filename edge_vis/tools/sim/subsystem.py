@@ -398,7 +398,7 @@ class SimVehicle:
         try:
             new = dt.datetime(year, month, stamp["day"], stamp["hour"], stamp["minutes"],
                               stamp["seconds"], stamp["milliseconds"] * 1000,
-                              tzinfo=dt.timezone.utc)
+                              tzinfo=dt.UTC)
         except ValueError:
             self.counters["bad_set_time"] += 1
             return []
@@ -410,7 +410,7 @@ class SimVehicle:
     def clock(self, now: float) -> dt.datetime:
         """The vehicle's clock (UTC, but ``clock_offset`` off) at ``now``."""
         return dt.datetime.fromtimestamp(now + self.wall_offset + self.clock_offset,
-                                         tz=dt.timezone.utc)
+                                         tz=dt.UTC)
 
     def _report_time(self, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
         t = self.clock(self._now)
