@@ -142,7 +142,7 @@ class ControlProfile:
     response_timeout: float = setting(2.0, gt=0, unit="s")
     retry_period: float = setting(5.0, gt=0, unit="s")
     max_ready_attempts: int = setting(3, ge=0)
-    holder_query_period: float = setting(10.0, ge=0, unit="s")
+    holder_query_period: float = setting(30.0, ge=0, unit="s")
     authority_from_operator: bool = False
 
 

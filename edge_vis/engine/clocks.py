@@ -34,6 +34,9 @@ log = logging.getLogger(__name__)
 TIME = CORE + "Time"
 #: QueryTime presence vector: time and date
 TIME_AND_DATE = 0b11
+#: unanswered QueryTime after discovery asked again (response timeout apart) before
+#: falling back to ``time.query_period``; also RequestControl attempts for SetTime
+TIME_ATTEMPTS = 3
 
 
 class Clocks:
@@ -53,10 +56,10 @@ class Clocks:
         if not providers:
             return
         address = providers[0]
-        retry = self._state.profile.discovery.response_timeout
-        if vehicle.clock_epoch != vehicle.times_lost and (
-                vehicle.next_time_query is None or vehicle.next_time_query > now + retry):
-            vehicle.next_time_query = now  # the first reading since found is due now
+        if vehicle.time_round != vehicle.times_lost:  # discovered, or found again
+            vehicle.time_round = vehicle.times_lost
+            vehicle.time_attempts = 0
+            vehicle.next_time_query = now
         if vehicle.next_time_query is not None and now >= vehicle.next_time_query:
             self._ask(vehicle, address, now)
         if address in vehicle.errands:
@@ -65,11 +68,13 @@ class Clocks:
     def _ask(self, vehicle: Vehicle, address: JausAddress, now: float) -> None:
         profile = self._state.profile
         vehicle.time_asked[address] = now
+        vehicle.time_attempts += 1
         period = profile.time.query_period
-        # unanswered: ask again after the response timeout
-        vehicle.next_time_query = now + (period if period > 0 and vehicle.clock_epoch ==
-                                         vehicle.times_lost else
-                                         profile.discovery.response_timeout)
+        answered = vehicle.clock_epoch == vehicle.times_lost
+        if not answered and vehicle.time_attempts < TIME_ATTEMPTS:
+            vehicle.next_time_query = now + profile.discovery.response_timeout
+        else:  # a vehicle that never answers is asked at the normal pace
+            vehicle.next_time_query = now + period if period > 0 else None
         self._state.send(address, "QueryTime", {"presence_vector": TIME_AND_DATE})
 
     def _errand(self, vehicle: Vehicle, address: JausAddress, now: float) -> None:
@@ -80,6 +85,9 @@ class Clocks:
             self._done(vehicle, address, now,
                        f"SetTime not sent: control of {address} refused "
                        f"(code {ctl.last_response})")
+        elif ctl.state is ControlState.REQUESTING and ctl.request_attempts > TIME_ATTEMPTS:
+            self._done(vehicle, address, now,
+                       f"SetTime not sent: {address} did not answer RequestControl")
         elif ctl.controlled:
             wall = now + self._state.wall_offset
             self._state.send(address, "SetTime", time_fields(wall), "control")

@@ -48,6 +48,11 @@ class Commands:
                                                                    command.service):
             reason = (f"{command.name} refused: component {command.component} does not "
                       f"offer {command.service}")
+        elif command.needs_ready and (held := [
+                a for a in self.destinations(vehicle, command)
+                if (c := vehicle.controls.get(a)) is not None and c.hold_standby]):
+            reason = (f"{command.name} refused: {held[0]} in STANDBY at the operator's "
+                      f"request (send Resume)")
         if reason:
             arb.reject(reason)
             state.counters["commands_rejected"] += 1

@@ -53,12 +53,17 @@ class Vehicle:
     #: component -> who controls it, as it last reported (ReportControl, ReportAuthority)
     holders: dict[JausAddress, HolderView] = field(default_factory=dict)
     next_holder_query: float | None = None
-    #: what the relay's control looked like when the holders were last asked
-    holders_asked_for: tuple[object, ...] | None = None
+    #: ``times_lost`` when every component was last asked (a new round after found)
+    holders_round: int = -1
+    #: per component, (controlled, authority) of the relay when it was last asked
+    holders_asked_for: dict[JausAddress, tuple[bool, int]] = field(default_factory=dict)
     #: the latest clock reading, when a QueryTime went out to which component
     clock: ClockView | None = None
     time_asked: dict[JausAddress, float] = field(default_factory=dict)
     next_time_query: float | None = None
+    #: ``times_lost`` when the clock was first asked since found; QueryTime sent since
+    time_round: int = -1
+    time_attempts: int = 0
     #: ``times_lost`` when the clock was first read since found (SetTime is decided then)
     clock_epoch: int = -1
     #: components the relay holds control of for an errand of its own (SetTime)

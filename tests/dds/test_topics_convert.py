@@ -80,8 +80,9 @@ def test_kinds_decide_direction() -> None:
     assert set(registry.inbound()) == {
         "ControlRequest", "WrenchEffortCommand", "VelocityCommand", "WaypointPlan",
         "JointCommand", "EndEffectorCommand", "DeviceCommand", "PlatformCommand",
-        "VectorCommand", "AccelerationLimitCommand", "PoseCommand",
+        "VectorCommand", "AccelerationLimitCommand", "PoseCommand", "ManagementCommand",
     }
+    assert registry.get("VehicleClock").kind is TopicKind.STATE
     assert registry.get("GlobalPose").kind is TopicKind.TELEMETRY
     assert registry.get("VehicleIdentification").kind is TopicKind.STATE
     assert registry.get("ControlStatus").kind is TopicKind.STATE

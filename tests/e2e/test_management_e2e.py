@@ -198,7 +198,7 @@ def test_sim_management_commands_and_clock_setting(domain_id: int, partition: st
         await runtime.start()
         operator = dds.DdsBridge(domain_id, (partition,))
         try:
-            operator.open_writers(["ControlRequest", "ManagementCommand"])
+            operator.open_writers(["ControlRequest", "ManagementCommand", "WrenchEffortCommand"])
             control = Latest(operator, "ControlStatus")
             clocks = Latest(operator, "VehicleClock")
             statuses = Latest(operator, "VehicleStatus")
@@ -245,6 +245,13 @@ def test_sim_management_commands_and_clock_setting(domain_id: int, partition: st
                                  "STANDBY")
             await asyncio.sleep(1.5)  # the relay does not Resume behind the operator's back
             assert platform.state == 2 and platform.controller == RELAY
+            operator.publish("WrenchEffortCommand", {"vehicle_id": vid, "operator_id": "op1",
+                                                     "propulsive_linear_x": 30.0})
+            status = await control.until(vid, lambda s: "SetWrenchEffort" in s[
+                "last_rejection"], "the motion refusal in STANDBY")
+            assert status["last_rejection"] == (
+                "SetWrenchEffort refused: 151.1.2 in STANDBY at the operator's request "
+                "(send Resume)")
             manage("RESUME")
             await statuses.until(vid, lambda s: state_name(s["state"]) == "READY",
                                  "READY after Resume")
