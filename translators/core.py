@@ -127,8 +127,8 @@ _ROWS: tuple[tuple[str, str, str, list[tuple[str, str, str]], str, str], ...] = 
      [("subsystem_id, node_id, component_id", "holders[].controller", "S.N.C, '' when none"),
       ("authority_code", "holders[].authority", ""),
       ("(controller == relay id)", "holders[].is_relay", "")], "QueryControl",
-     "every component with AccessControl; on control changes and every "
-     "control.holder_query_period s"),
+     "every component with AccessControl (or IOP EnhancedAccessControl): on discovery, "
+     "when the relay loses control of it, every control.holder_query_period s"),
     ("jaus->dds", "ReportAuthority", "ControlStatus",
      [("authority_code", "holders[].current_authority", "")], "QueryAuthority", ""),
     ("dds->jaus", "SetAuthority", "ControlRequest",
