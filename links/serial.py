@@ -32,6 +32,7 @@ import contextlib
 import errno
 import logging
 import os
+from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -95,6 +96,13 @@ class SerialLink(Link):
         self._loop: asyncio.AbstractEventLoop | None = None
         self._deframer = SerialDeframer(timeout=self.frame_timeout)
         self._out = bytearray()  # framed bytes not yet written
+        #: length of each frame in ``_out``, and how much of the first is written: an
+        #: urgent frame goes in at the first frame boundary, never inside a frame
+        self._frames: deque[int] = deque()
+        self._head_sent = 0
+        #: leading bytes of ``_out`` written regardless of pacing (urgent frames and the
+        #: rest of the frame they waited for)
+        self._urgent_bytes = 0
         self._budget = 0.0
         self._budget_time = 0.0
         self._pump_handle: asyncio.Handle | None = None
@@ -141,6 +149,8 @@ class SerialLink(Link):
         if self._out:
             self.counters.dropped("link down (bytes unsent)", len(self._out))
         self._out.clear()
+        self._frames.clear()
+        self._head_sent = self._urgent_bytes = 0
 
     async def _close(self) -> None:
         if self._reopen_task is not None:
@@ -211,11 +221,42 @@ class SerialLink(Link):
                 continue
             data = frame(packet)
             out += data
+            self._frames.append(len(data))
             self.counters.sent(self.path, len(data), 1)
         # write once per loop iteration: frames queued by one burst of input share a
         # system call (a radio gains nothing from many small writes)
         if self._pump_handle is None and not self._writer_armed and self._loop is not None:
             self._pump_handle = self._loop.call_soon(self._pump)
+
+    def _send_urgent(self, packets: Sequence[Packet], peer: Peer | None) -> None:
+        """Frames ahead of every buffered one (after the frame being written, and after
+        earlier urgent ones), written at once whatever the pacing budget; never dropped
+        for a full buffer."""
+        if self._fd is None:
+            self.counters.dropped("link down", len(packets))
+            return
+        out, frames = self._out, self._frames
+        # where the urgent prefix ends: the rest of the frame in progress, earlier urgent
+        # frames; always a frame boundary
+        position, index = 0, 0
+        if self._head_sent and frames:
+            position, index = frames[0] - self._head_sent, 1
+        while position < self._urgent_bytes and index < len(frames):
+            position += frames[index] if index else frames[0] - self._head_sent
+            index += 1
+        for packet in packets:
+            data = frame(packet)
+            out[position:position] = data
+            frames.insert(index, len(data))
+            position += len(data)
+            index += 1
+            self.counters.sent(self.path, len(data), 1)
+        self._urgent_bytes = position
+        if self._pump_handle is not None:
+            self._pump_handle.cancel()
+            self._pump_handle = None
+        if not self._writer_armed:
+            self._pump()
 
     def _pump(self) -> None:
         """Write what the pacing budget allows; schedule the rest."""
@@ -231,7 +272,7 @@ class SerialLink(Link):
             self._budget = min(burst, self._budget + (now - self._budget_time)
                                * self.bytes_per_second)
             self._budget_time = now
-            allowed = min(len(out), int(self._budget))
+            allowed = min(len(out), max(int(self._budget), self._urgent_bytes))
         else:
             allowed = len(out)
         if allowed > 0:
@@ -249,11 +290,21 @@ class SerialLink(Link):
                 self._writer_armed = True
                 return
             del out[:written]
+            self._written(written)
             if self.pace:
                 self._budget -= written
         if out:
             wait = (1.0 - self._budget) / self.bytes_per_second if self.pace else 0.0
             self._pump_handle = loop.call_later(max(wait, 0.0005), self._pump)
+
+    def _written(self, count: int) -> None:
+        """``count`` bytes left the buffer: advance the frame bookkeeping."""
+        self._urgent_bytes = max(0, self._urgent_bytes - count)
+        frames = self._frames
+        count += self._head_sent
+        while frames and count >= frames[0]:
+            count -= frames.popleft()
+        self._head_sent = count
 
     def _writable(self) -> None:
         if self._fd is not None and self._loop is not None:

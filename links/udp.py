@@ -212,6 +212,33 @@ class UdpLink(Link):
                     continue
                 counters.sent(target, len(data), count)
 
+    def _send_urgent(self, packets: Sequence[Packet], peer: Peer | None) -> None:
+        """Straight to the socket, ahead of any backlog; if the kernel refuses it, first
+        in the backlog, whatever its size."""
+        sock = self._sock
+        if sock is None:
+            self.counters.dropped("link down", len(packets))
+            return
+        targets = [peer] if peer is not None else self._broadcast_targets()
+        held: list[tuple[bytes, Peer, int]] = []
+        for target in targets:
+            for data, count in self._datagrams(packets):
+                try:
+                    sock.sendto(data, target)  # type: ignore[arg-type]
+                except BlockingIOError:
+                    held.append((data, target, count))
+                except (OSError, ValueError, TypeError) as exc:
+                    self.counters.dropped("send error", count)
+                    self.counters.last_error = f"send to {target}: {exc}"
+                else:
+                    self.counters.sent(target, len(data), count)
+        if held:
+            if not self._backlog and self._loop is not None:
+                self._loop.add_writer(sock.fileno(), self._writable)
+            for item in reversed(held):
+                self._backlog.appendleft(item)
+                self._backlog_bytes += len(item[0])
+
     def _hold(self, data: bytes, target: Peer, count: int) -> None:
         """Keep a datagram the kernel refused for now; bounded."""
         if self._backlog_bytes + len(data) > MAX_WRITE_BUFFER:

@@ -234,6 +234,8 @@ def test_two_demos_side_by_side_unattended_and_reporting_until_stopped(tmp_path:
     assert topics.get("ImageProduct", 0) >= 1  # its ATR notice
     delivered = summary["commands_delivered"]
     assert "control ugv-alpha-101" in delivered and "drive ugv-alpha-101" in delivered
+    assert "emergency stop ugv-alpha-101" in delivered
+    assert "emergency clear ugv-alpha-101" in delivered
     # ugv-bravo drops out 8 s after start for 5 s and comes back rebooted
     bravo = vehicles["ugv-bravo-102"]
     assert bravo["dropouts"] == 1 and bravo["recovered"] == 1

@@ -138,6 +138,28 @@ def test_operator_keys_make_commands() -> None:
     assert op.quit
 
 
+def test_e_stops_at_once_and_clearing_asks_first() -> None:
+    view = FleetView()
+    _fleet(view, 0.0)
+    op = Operator("alice", 150)
+    op.key("d", view)  # driving ugv-a
+    [(topic, sample)] = op.key("e", view)
+    assert topic == "EmergencyCommand" and not op.driving
+    assert (sample["vehicle_id"], sample["action"], sample["authority"]) == ("ugv-a", "SET", 150)
+    view.ingest("VehicleStatus", {"vehicle_id": "ugv-a", "state": "EMERGENCY", "online": True,
+                                  "emergency": True, "emergency_operator": "alice",
+                                  "emergency_reason": "monitor of alice"}, 1.0)
+    lines = view.render(1.0, selected="ugv-a")
+    assert "!E-STOP!" in lines[1]
+    assert lines[2].strip() == "*** EMERGENCY STOP set by alice: monitor of alice ***"
+    assert op.key("e", view) == [] and "CLEAR" in op.message  # asks
+    assert op.key("x", view) == [] and "kept" in op.message  # anything else keeps it
+    assert op.key("e", view) == []
+    [(topic, sample)] = op.key("y", view)
+    assert (topic, sample["action"]) == ("EmergencyCommand", "CLEAR")
+    assert op.key("y", view) == []  # a second y clears nothing more
+
+
 def test_waypoint_triangle_starts_ahead_of_the_vehicle() -> None:
     plan = waypoint_plan("v", "op", 36.6, -121.9, 0.0, side=100.0)
     first, second, third = plan["waypoints"]

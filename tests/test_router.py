@@ -230,3 +230,33 @@ def test_local_to_local_is_delivered_without_a_link() -> None:
     router = make_router()
     (d,) = router.send(pkt(ME, ME2), now=0.0)
     assert isinstance(d, Deliver) and d.link is None and d.packet.sequence == 1
+
+
+def test_urgent_jumps_paced_full_and_busy_queues_and_is_never_dropped() -> None:
+    router = Router([ME])
+    router.add_link("slow", bandwidth_bps=2400, queue_limit=500)
+    router.add_route(ROBOT, "slow", RADIO)
+    for i in range(40):  # 40 x 50 bytes of telemetry: paced, over the limit
+        router.send(pkt(ME, ROBOT, bytes([i]) * 50, priority=Priority.LOW), now=0.0)
+    assert router.stats().counters.get("dropped: queue full (priority 0)", 0) > 0
+    depth = router.stats().links["slow"].depth
+    stop = pkt(ME, ROBOT, b"\x06\x00\x01\x00", priority=Priority.SAFETY_CRITICAL)
+    (out,) = sends(router.send(stop, now=0.0, urgent=True))  # no budget left: still now
+    assert out.urgent and out.packets[0].payload == stop.payload
+    assert router.stats().links["slow"].depth == depth  # nothing else left with it
+    # its bytes count against the budget: the next telemetry waits longer
+    deadline = router.next_deadline()
+    assert deadline is not None and deadline > 0.1
+    router.set_busy("slow", True, now=0.0)
+    (out,) = sends(router.send(stop, now=0.01, urgent=True))  # a busy link too
+    assert out.urgent
+    assert router.stats().counters["sent urgently"] == 2
+    assert not [k for k in router.stats().counters if "dropped" in k and "priority 3" in k]
+
+
+def test_urgent_on_an_unpaced_link_goes_out_flagged() -> None:
+    router = make_router()
+    router.add_route(ROBOT, "udp", UDP_PEER)
+    (plain,) = sends(router.send(pkt(ME, ROBOT), now=0.0))
+    (urgent,) = sends(router.send(pkt(ME, ROBOT), now=0.0, urgent=True))
+    assert not plain.urgent and urgent.urgent and urgent.peer == UDP_PEER

@@ -8,7 +8,8 @@ Publishes, from the engine's view of each vehicle:
 * ``ControlStatus`` when operator arbitration or JAUS access control changes, including
   refused commands (``rejected_commands``, ``last_rejection``) and, per component with
   AccessControl, who controls it with which authority and whether that is this relay
-  (``holders``, from the engine's QueryControl and QueryAuthority).
+  (``holders``, from the engine's QueryControl and QueryAuthority);
+* both when an emergency stop is set, confirmed or cleared (``emergency``).
 """
 
 from __future__ import annotations
@@ -48,6 +49,9 @@ def status_sample(view: VehicleView) -> dict[str, Any]:
         "link": view.link,
         "online": view.online,
         "last_seen_ms": view.last_seen_ms,
+        "emergency": view.emergency,
+        "emergency_operator": view.emergency_operator,
+        "emergency_reason": view.emergency_reason,
     }
 
 
@@ -66,6 +70,7 @@ def control_sample(view: VehicleView, timestamp_ms: int) -> dict[str, Any]:
         "rejected_commands": view.rejected_commands,
         "last_rejection": view.last_rejection,
         "timestamp_ms": timestamp_ms,
+        "emergency": view.emergency,
         "holders": [{"component": str(h.component),
                      "controller": str(h.controller) if h.controller is not None else "",
                      "authority": h.authority, "current_authority": h.current_authority,
@@ -97,6 +102,9 @@ class CoreTranslator(Translator):
             return [Publish("VehicleStatus", status_sample(view))]
         if change == "control":
             return [Publish("ControlStatus", control_sample(view, ctx.timestamp_ms))]
+        if change == "emergency":
+            return [Publish("VehicleStatus", status_sample(view)),
+                    Publish("ControlStatus", control_sample(view, ctx.timestamp_ms))]
         return []
 
     def describe(self) -> list[dict[str, Any]]:

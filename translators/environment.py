@@ -21,23 +21,23 @@ record, which is skipped.
 from __future__ import annotations
 
 import hashlib
-import math
 from collections.abc import Mapping
 from typing import Any
 
 from edge_vis.kit import (
+    CHUNK_BYTES,
     NAN,
     Action,
     Computed,
     Const,
     Each,
     From,
-    Publish,
     ReportRule,
     RuleTranslator,
     TranslatorContext,
     describe_rules,
     get_path,
+    publish_image,
 )
 
 ENV = "urn:jaus:jss:environmentSensing:"
@@ -49,8 +49,6 @@ ANALOG_VIDEO = ENV + "AnalogVideo"
 
 #: sensor IDs the relay asks every sensing component about
 SENSOR_IDS: tuple[int, ...] = (1, 2, 3, 4)
-#: largest ImageData chunk: well under Cyclone's default 64 kB sample fragment budget
-CHUNK_BYTES = 32 * 1024
 
 #: StillImage formats (ReportStillImageData.image_frame format) -> file extension
 IMAGE_FORMATS = {0: "jpeg", 1: "gif", 2: "png", 3: "bmp", 4: "tiff", 5: "ppm", 6: "pgm",
@@ -205,10 +203,8 @@ class EnvironmentTranslator(RuleTranslator):
         elements = [e for e in fields.get("still_image_data_list") or []
                     if get_path(e, "image_frame.data") is not None]
         for element, product in zip(elements, self.samples(rule, fields, ctx), strict=True):
-            actions.append(Publish("ImageProduct", product))
-            actions.extend(Publish("ImageData", chunk) for chunk in image_chunks(
-                ctx.vehicle.vehicle_id, product["image_id"],
-                bytes(get_path(element, "image_frame.data"))))
+            actions.extend(publish_image(product,
+                                         bytes(get_path(element, "image_frame.data"))))
         return actions
 
     def samples(self, rule: ReportRule, fields: Mapping[str, Any],
@@ -229,11 +225,3 @@ class EnvironmentTranslator(RuleTranslator):
              "data": From("image_frame.data", note=f"<= {CHUNK_BYTES} bytes per chunk")})
         return rows + describe_rules(self.name, (rule,), ())
 
-
-def image_chunks(vehicle_id: str, image_id: str, data: bytes,
-                 size: int = CHUNK_BYTES) -> list[dict[str, Any]]:
-    """``ImageData`` samples carrying ``data`` in order (one empty chunk for no data)."""
-    count = max(1, math.ceil(len(data) / size))
-    return [{"vehicle_id": vehicle_id, "image_id": image_id, "chunk_index": i,
-             "chunk_count": count, "data": data[i * size:(i + 1) * size]}
-            for i in range(count)]

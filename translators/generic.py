@@ -1,45 +1,87 @@
-"""The ``generic`` translator: JAUS -> DDS mappings read from the deployment profile. No I/O.
+"""The ``generic`` translator: JAUS <-> DDS mappings read from the deployment profile. No I/O.
 
 Rules come from the deployment profile instead of Python, for messages a user loads
 from JSIDL::
 
     [[translators.generic.mappings]]
     message = "ReportWaterQuality"        # a message of the user's JSIDL
-    topic = "WaterQuality"                # DDS topic (type edge_vis::GenericReport)
+    topic = "WaterQuality"                # DDS topic, typed from the JSIDL
     query = "QueryWaterQuality"           # optional: how to ask for it ...
     service = "urn:example:WaterQuality"  # ... from which service
     rate = 0.5                            # Hz
     fields = { turbidity = "turbidity", ph = "chemistry.ph" }   # DDS name = JAUS path
+    # generic = true                      # the untyped GenericReport instead
 
-The table is declared as dataclasses (:class:`GenericOptions`, :class:`GenericMapping`)
-and read by the validation kit. Before the relay starts (and in ``edge-vis check``),
-:meth:`GenericTranslator.verify` looks every message, query, service and field path up in
-the live catalogue, the profile's own JSIDL included. Field paths start at the message's
-fields: a body that is one record is flattened when decoded, so its record's name is not
-part of the path (``turbidity``, not ``water_quality_rec.turbidity``).
+    [[translators.generic.mappings]]      # a message carrying a file
+    message = "ReportSnapshot"
+    image = { data = "image_file", format = "png", sha256_field = "sha256" }
+
+    [[translators.generic.commands]]      # DDS -> JAUS, only from the operator in control
+    topic = "CameraPointing"
+    message = "SetCameraPointing"
+    service = "urn:example:CameraPod"
+    fields = { pan = "pan", tilt = "tilt" }
+    rate = 2.0                            # Hz, latest wins; default [commands].rate
+    lifespan = 1.0                        # s; default [commands].lifespan
+
+Each mapped topic's type is built from the JSIDL types of its fields
+(:mod:`edge_vis.kit.shapes`): ``vehicle_id`` (key), the fields, ``timestamp_ms``; a command
+topic has ``vehicle_id`` and ``operator_id``. Command values are clamped to the limits the
+JSIDL declares (the codec scales them); the engine gates, throttles and expires them as it
+does every command. An image mapping checks the file against the size and SHA-256 the
+message declares and publishes it as ``ImageProduct`` + ``ImageData`` chunks
+(:mod:`edge_vis.kit.imagery`).
+
+The tables are declared as dataclasses and read by the validation kit. Before the relay
+starts (and in ``edge-vis check``), :meth:`GenericTranslator.verify` looks every message,
+query, service and field path up in the live catalogue, the profile's own JSIDL included.
+Field paths start at the message's fields: a body that is one record is flattened when
+decoded, so its record's name is not part of the path (``turbidity``, not
+``water_quality_rec.turbidity``).
 """
 
 from __future__ import annotations
 
 import difflib
+import hashlib
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 from edge_vis.kit import (
+    CHUNK_BYTES,
     NAN,
+    Action,
+    Build,
+    CommandRule,
     Computed,
     ConfigError,
     Const,
+    From,
+    Put,
+    PutEach,
     ReportRule,
     RuleTranslator,
     TopicDecl,
+    TranslatorContext,
     declarations,
     get_path,
     path_problem,
+    publish_image,
     read_table,
     setting,
 )
+from edge_vis.kit.shapes import (
+    MODULE,
+    Member,
+    StructShape,
+    camel,
+    field_at,
+    idl_type,
+    shape_of,
+)
+
+IMAGE_PRODUCT = "ImageProduct"
 
 
 def _non_empty(text: str) -> str | None:
@@ -49,47 +91,145 @@ def _non_empty(text: str) -> str | None:
 def _topic_name(topic: str) -> str | None:
     if not topic:
         return "missing (a non-empty string)"
-    return None if topic.replace("_", "").isalnum() else \
+    return _topic_name_or_empty(topic)
+
+
+def _topic_name_or_empty(topic: str) -> str | None:
+    return None if not topic or topic.replace("_", "").isalnum() else \
         f"{topic!r}: letters, digits and '_' only"
+
+
+def _member_name(name: str) -> str | None:
+    return None if name.isidentifier() else \
+        f"{name!r}: a DDS member name is letters, digits and '_', not starting with a digit"
+
+
+@dataclass(frozen=True, slots=True)
+class ImageOptions:
+    """A mapping's ``image`` table: the variable-length field ``data`` holds an image (or,
+    with ``kind = "file"``, any file), published as ``ImageProduct`` + ``ImageData``.
+
+    The format is ``format`` or read from ``format_field`` (a value set gives its name);
+    ``id_field`` names the image; ``size_field`` and ``sha256_field`` are what the message
+    declares of the file, checked against the bytes that arrived.
+    """
+
+    data: str = setting(check=_non_empty, doc="the variable-length field holding the file")
+    kind: Literal["image", "file"] = "image"
+    format: str = ""
+    format_field: str = ""
+    id_field: str = ""
+    size_field: str = ""
+    sha256_field: str = ""
+
+    def validate(self) -> Iterator[tuple[str, str]]:
+        """One source for the format."""
+        if self.format and self.format_field:
+            yield "format_field", "give format or format_field, not both"
 
 
 @dataclass(frozen=True, slots=True)
 class GenericMapping:
-    """One profile mapping: JAUS ``message`` -> DDS ``topic`` (type GenericReport).
+    """One profile mapping: JAUS ``message`` -> DDS ``topic``.
 
-    ``fields`` maps each DDS field name to a JAUS field path of ``message``; ``query``
-    asks ``service`` for the message, with ``query_fields``, at ``rate``.
+    ``fields`` maps each DDS member to a JAUS field path of ``message``; the topic's type
+    is built from those fields' JSIDL types (``generic = true``: the untyped
+    ``GenericReport`` instead). ``query`` asks ``service`` for the message, with
+    ``query_fields``, at ``rate``. With ``image`` the message carries a file, published as
+    ``ImageProduct`` plus ``ImageData`` chunks (``topic`` may then be left out).
     """
 
     message: str = setting(check=_non_empty, doc="the JAUS message to publish")
-    topic: str = setting(check=_topic_name, doc="the DDS topic to publish it on")
+    topic: str = setting("", check=_topic_name_or_empty, doc="the DDS topic to publish it on")
     fields: Mapping[str, str] = setting(factory=dict, check=_non_empty,
                                         unit="a JAUS field path")
     query: str = ""
     service: str = ""
     rate: float = setting(1.0, gt=0, le=1092, unit="Hz")
     query_fields: Mapping[str, Any] = setting(factory=dict)
+    generic: bool = False
+    image: ImageOptions | None = None
 
     def validate(self) -> Iterator[tuple[str, str]]:
         """A query is sent to a service: one without the other cannot be used."""
         if bool(self.query) != bool(self.service):
             yield ("service" if self.query else "query"), "query and service go together"
+        if self.image is None:
+            if not self.topic:
+                yield "topic", "missing (a non-empty string)"
+            for dds in self.fields:
+                if problem := _member_name(dds):
+                    yield f"fields.{dds}", problem
+        else:
+            if self.topic not in ("", IMAGE_PRODUCT):
+                yield "topic", f"an image mapping publishes on {IMAGE_PRODUCT}: leave topic out"
+            if self.fields:
+                yield "fields", "an image mapping takes its fields from image (no fields)"
+            if self.generic:
+                yield "generic", "an image mapping publishes ImageProduct, not GenericReport"
+
+    @property
+    def out_topic(self) -> str:
+        """The topic this mapping publishes on."""
+        return IMAGE_PRODUCT if self.image is not None else self.topic
+
+
+@dataclass(frozen=True, slots=True)
+class GenericCommand:
+    """One profile command: a sample of DDS ``topic`` -> JAUS command ``message`` to the
+    component offering ``service``, sent only while the operator holds the vehicle.
+
+    ``fields`` maps each DDS member to a JAUS field path, as in mappings; ``constants``
+    fixes JAUS fields. ``rate`` and ``lifespan`` throttle it (the
+    profile's ``[commands]`` when left out), per vehicle and ``kind`` (default: the
+    topic). ``stop`` (JAUS path = value) makes it a motion command: refused in emergency,
+    and sent by the relay itself when the operator goes quiet (dead-man).
+    """
+
+    topic: str = setting(check=_topic_name, doc="the DDS topic operators publish")
+    message: str = setting(check=_non_empty, doc="the JAUS command to send")
+    service: str = setting(check=_non_empty, doc="the service that executes it")
+    fields: Mapping[str, str] = setting(factory=dict, check=_non_empty,
+                                        unit="a JAUS field path")
+    constants: Mapping[str, Any] = setting(factory=dict)
+    kind: str = ""
+    rate: float | None = setting(None, gt=0, le=1092, unit="Hz")
+    lifespan: float | None = setting(None, gt=0, unit="s")
+    stop: Mapping[str, Any] = setting(factory=dict)
+
+    def validate(self) -> Iterator[tuple[str, str]]:
+        """DDS member names are identifiers and not the ones every command carries."""
+        for dds in self.fields:
+            if problem := _member_name(dds):
+                yield f"fields.{dds}", problem
+            elif dds in ("vehicle_id", "operator_id"):
+                yield f"fields.{dds}", f"{dds!r} is a member of every command topic already"
 
 
 @dataclass(frozen=True, slots=True)
 class GenericOptions:
-    """The ``[translators.generic]`` table: ``[[translators.generic.mappings]]``."""
+    """The ``[translators.generic]`` table: ``[[translators.generic.mappings]]`` (JAUS to
+    DDS) and ``[[translators.generic.commands]]`` (DDS to JAUS)."""
 
     mappings: tuple[GenericMapping, ...] = ()
+    commands: tuple[GenericCommand, ...] = ()
 
     def validate(self) -> Iterator[tuple[str, str]]:
-        """Each JAUS message goes to one topic."""
+        """Each JAUS message goes to one topic; a command topic is not a report topic."""
         topics: dict[str, str] = {}
         for i, m in enumerate(self.mappings):
             if m.message in topics:
                 yield f"mappings[{i}].message", f"{m.message} is already mapped to " \
                                                 f"{topics[m.message]}"
-            topics[m.message] = m.topic
+            topics[m.message] = m.out_topic
+        published = set(topics.values())
+        seen: set[str] = set()
+        for i, c in enumerate(self.commands):
+            if c.topic in published:
+                yield f"commands[{i}].topic", f"{c.topic} is a report topic of a mapping"
+            if c.topic in seen:
+                yield f"commands[{i}].topic", f"{c.topic} already drives another command"
+            seen.add(c.topic)
 
 
 def generic_value(value: Any) -> dict[str, Any]:
@@ -129,6 +269,8 @@ def catalogue_problems(mapping: GenericMapping, catalogue: Any) -> Iterator[tupl
         for dds, path in mapping.fields.items():
             if problem := path_problem(defn.body, path):
                 yield f"fields.{dds}", f"{path!r} of {mapping.message}: {problem}"
+        if mapping.image is not None:
+            yield from _image_problems(mapping.image, defn)
     if mapping.query:
         query = _lookup(catalogue, mapping.query)
         if query is None:
@@ -141,10 +283,59 @@ def catalogue_problems(mapping: GenericMapping, catalogue: Any) -> Iterator[tupl
                     yield f"query_fields.{key}", (f"no field {key!r} in {mapping.query} "
                                                   f"(fields: {', '.join(known) or 'none'})")
     if mapping.service:
-        services = sorted({uri for d in catalogue for uri, _version in d.services})
-        if mapping.service not in services:
-            yield "service", f"no service {mapping.service!r} declares a message in the " \
-                             f"catalogue{_close(mapping.service, services)}"
+        yield from _service_problems(mapping.service, catalogue)
+
+
+def _image_problems(image: ImageOptions, defn: Any) -> Iterator[tuple[str, str]]:
+    wanted = {"data": ("octets",), "format_field": ("string", "int"),
+              "id_field": ("string", "int"), "size_field": ("int",),
+              "sha256_field": ("string", "octets")}
+    for key, kinds in wanted.items():
+        path = getattr(image, key)
+        if not path:
+            continue
+        if problem := path_problem(defn.body, path):
+            yield f"image.{key}", f"{path!r} of {defn.name}: {problem}"
+            continue
+        shape = shape_of(field_at(defn.body, path)[0], "_")
+        kind = "int" if isinstance(shape, str) and "int" in shape else shape
+        if kind not in kinds:
+            what = {"octets": "a variable-length field (bytes)", "string": "a string",
+                    "int": "an integer"}
+            yield f"image.{key}", (f"{path!r} of {defn.name} is {idl_type(shape)}; "
+                                   f"{key} needs {' or '.join(what[k] for k in kinds)}")
+
+
+def _service_problems(service: str, catalogue: Any) -> Iterator[tuple[str, str]]:
+    services = sorted({uri for d in catalogue for uri, _version in d.services})
+    if service not in services:
+        yield "service", f"no service {service!r} declares a message in the " \
+                         f"catalogue{_close(service, services)}"
+
+
+def command_problems(command: GenericCommand, catalogue: Any) -> Iterator[tuple[str, str]]:
+    """What ``command`` names that ``catalogue`` lacks, or leaves out, as ``(key, reason)``."""
+    names = sorted({d.name for d in catalogue})
+    yield from _service_problems(command.service, catalogue)
+    defn = _lookup(catalogue, command.message)
+    if defn is None:
+        yield "message", f"no message {command.message!r} in the catalogue" \
+                         f"{_close(command.message, names)}"
+        return
+    paths = {**{p: f"fields.{d}" for d, p in command.fields.items()},
+             **{p: f"constants.{p}" for p in command.constants}}
+    for path, key in [*paths.items(), *((p, f"stop.{p}") for p in command.stop)]:
+        if problem := path_problem(defn.body, path):
+            yield key, f"{path!r} of {command.message}: {problem}"
+    missing = [f.name for f in defn.body.fields if not f.optional
+               and not any(p == f.name or p.startswith(f.name + ".") for p in paths)]
+    if missing:
+        yield "fields", (f"{command.message} needs {', '.join(missing)}: map "
+                         f"{'it' if len(missing) == 1 else 'them'} in fields or constants")
+    declared = [uri for uri, _version in defn.services]
+    if declared and command.service not in declared:
+        yield "service", (f"{command.service!r} does not declare {command.message} "
+                          f"(declared by {', '.join(declared)})")
 
 
 def _lookup(catalogue: Any, name: str) -> Any:
@@ -161,66 +352,236 @@ def _close(name: str, names: Sequence[str]) -> str:
 
 
 class GenericTranslator(RuleTranslator):
-    """Any JAUS message -> a ``GenericReport``-typed topic, mapped in the profile.
+    """JAUS messages -> typed topics (or ``GenericReport``, or images), and DDS topics ->
+    JAUS commands, mapped in the profile.
 
     Built empty (it translates nothing) until :meth:`configure` gives it the profile's
-    ``[translators.generic]`` table, or ``mappings`` are passed in.
+    ``[translators.generic]`` table, or ``mappings`` are passed in. Topic types and command
+    limits come from the JSIDL, so :meth:`verify` (with the live catalogue) completes the
+    rules; what the engine needs before that (messages, topics, controlled services) is
+    known from the table alone.
     """
 
     name = "generic"
     options_type = GenericOptions
 
-    def __init__(self, mappings: Sequence[GenericMapping] = ()) -> None:
+    def __init__(self, mappings: Sequence[GenericMapping] = (),
+                 commands: Sequence[GenericCommand] = ()) -> None:
         self.mappings: tuple[GenericMapping, ...] = ()
+        self.commands: tuple[GenericCommand, ...] = ()
         super().__init__()
-        self._set(tuple(mappings))
+        self._images: dict[str, tuple[GenericMapping, Mapping[int, str]]] = {}
+        self._set(tuple(mappings), tuple(commands))
 
     def apply_options(self, options: GenericOptions) -> None:
-        """Take the mappings of the validated profile table."""
-        self._set(options.mappings)
+        """Take the mappings and commands of the validated profile table."""
+        self._set(options.mappings, options.commands)
 
     def verify(self, catalogue: Any, source: str = "") -> None:
-        """Every message, query, service and field path must exist in ``catalogue``."""
-        where = f"translators.{self.name}.mappings"
-        problems = [(source, f"{where}[{i}].{key}", reason)
+        """Every message, query, service and field path must exist in ``catalogue``; a
+        command must set every field its message requires. Then the topic types and the
+        command limits are built from the JSIDL."""
+        where = f"translators.{self.name}"
+        problems = [(source, f"{where}.mappings[{i}].{key}", reason)
                     for i, m in enumerate(self.mappings)
                     for key, reason in catalogue_problems(m, catalogue)]
+        problems += [(source, f"{where}.commands[{i}].{key}", reason)
+                     for i, c in enumerate(self.commands)
+                     for key, reason in command_problems(c, catalogue)]
         if problems:
             raise ConfigError(problems)
+        self._set(self.mappings, self.commands, catalogue)
 
-    def _set(self, mappings: tuple[GenericMapping, ...]) -> None:
-        self.mappings = mappings
-        rules = tuple(self._rule(m) for m in mappings)
+    def _set(self, mappings: tuple[GenericMapping, ...], commands: tuple[GenericCommand, ...],
+             catalogue: Any = None) -> None:
+        self.mappings, self.commands = mappings, commands
+        defs = {name: _lookup(catalogue, name) if catalogue is not None else None
+                for name in {*(m.message for m in mappings), *(c.message for c in commands)}}
+        rules = tuple(self._rule(m, defs[m.message]) for m in mappings)
+        command_rules = tuple(_command_rule(c, defs[c.message]) for c in commands)
         # instance attributes: this translator's declarations come from the profile
         self.report_rules = rules  # type: ignore[misc]
-        for name, value in declarations(rules, ()).items():
+        self.command_rules = command_rules  # type: ignore[misc]
+        extra = ("ImageData",) if any(m.image is not None for m in mappings) else ()
+        for name, value in declarations(rules, command_rules, (), extra).items():
             setattr(self, name, value)
         self._by_message = {}
         for rule in rules:
             self._by_message.setdefault(rule.message, []).append(rule)
-        self.topic_types = self._topic_specs()  # type: ignore[misc]
+        self._by_topic = {}
+        for command in command_rules:
+            self._by_topic.setdefault(command.topic, []).append(command)
+        self._images = {m.message: (m, _labels(defs[m.message], m.image.format_field))
+                        for m in mappings if m.image is not None}
+        self.topic_types = self._topic_specs(defs)  # type: ignore[misc]
 
     @staticmethod
-    def _rule(m: GenericMapping) -> ReportRule:
-        def fields_of(jaus: Mapping[str, Any], m: GenericMapping = m) -> list[dict[str, Any]]:
-            return [{"name": dds, **generic_value(get_path(jaus, path))}
-                    for dds, path in m.fields.items() if get_path(jaus, path) is not None]
+    def _rule(m: GenericMapping, defn: Any) -> ReportRule:
+        spec: dict[str, Any]
+        if m.image is not None:
+            spec = {"image_id": Computed(lambda e: "", f"{m.message}-<{m.image.id_field}>"),
+                    "data": From(m.image.data, note="ImageData chunks")}
+            return ReportRule(m.message, IMAGE_PRODUCT, spec, query=m.query,
+                              service=m.service, query_fields=m.query_fields, rate=m.rate,
+                              stamp=False, doc=f"{m.image.kind}: ImageProduct + ImageData "
+                                               f"chunks of <= {CHUNK_BYTES} bytes")
+        if m.generic:
+            def fields_of(jaus: Mapping[str, Any], m: GenericMapping = m) -> list[dict[str, Any]]:
+                return [{"name": dds, **generic_value(get_path(jaus, path))}
+                        for dds, path in m.fields.items() if get_path(jaus, path) is not None]
 
+            spec = {"message": Const(m.message),
+                    "fields": Computed(fields_of,
+                                       "; ".join(f"{d}<-{p}" for d, p in m.fields.items()))}
+        else:
+            spec = {dds: From(path, default=None, note=_note(defn, path))
+                    for dds, path in m.fields.items()}
         return ReportRule(
-            m.message, m.topic,
-            {"message": Const(m.message),
-             "fields": Computed(fields_of, "; ".join(f"{d}<-{p}" for d, p in m.fields.items()))},
+            m.message, m.topic, spec,
             query=m.query, service=m.service, query_fields=m.query_fields, rate=m.rate,
-            doc="profile mapping",
+            doc="profile mapping" + (" (GenericReport)" if m.generic else ""),
         )
 
-    def _topic_specs(self) -> tuple[TopicDecl, ...]:
-        return tuple(dict.fromkeys(TopicDecl(m.topic, "GenericReport", "telemetry")
-                                   for m in self.mappings if m.topic != "GenericReport"))
+    def on_message(self, name: str, fields: Mapping[str, Any],
+                   ctx: TranslatorContext) -> list[Action]:
+        if name not in self._images:
+            return super().on_message(name, fields, ctx)
+        if ctx.vehicle is None:
+            return []
+        mapping, labels = self._images[name]
+        return image_actions(mapping, labels, fields, ctx)
+
+    def _topic_specs(self, defs: Mapping[str, Any]) -> tuple[TopicDecl, ...]:
+        decls: list[TopicDecl] = []
+        for m in self.mappings:
+            if m.image is not None or m.topic == "GenericReport":
+                continue
+            if m.generic:
+                decls.append(TopicDecl(m.topic, "GenericReport", "telemetry"))
+            elif defs[m.message] is not None:
+                shape = topic_shape(m.topic, defs[m.message], m.fields, command=False)
+                decls.append(TopicDecl(m.topic, shape.name, "telemetry", shape))
+        for c in self.commands:
+            if defs[c.message] is not None:
+                shape = topic_shape(c.topic, defs[c.message], c.fields, command=True)
+                decls.append(TopicDecl(c.topic, shape.name, "command", shape))
+        return tuple(dict.fromkeys(decls))
 
     def describe(self) -> list[dict[str, Any]]:
         rows = super().describe()
         for row, m in zip(rows, self.mappings, strict=False):
-            row["fields"] = [{"dds": f"fields[name={d}]", "jaus": p, "note": ""}
-                             for d, p in m.fields.items()]
+            if m.generic:
+                row["fields"] = [{"dds": f"fields[name={d}]", "jaus": p, "note": ""}
+                                 for d, p in m.fields.items()]
         return rows
+
+
+def topic_shape(topic: str, defn: Any, fields: Mapping[str, str], *,
+                command: bool) -> StructShape:
+    """The type of a mapping's topic: ``vehicle_id`` (key), the mapped JAUS fields with
+    their JSIDL types, then ``timestamp_ms`` (a report) or ``operator_id`` (a command)."""
+    type_name = f"{MODULE}::{topic}"
+    members = [Member("vehicle_id", "string", key=True)]
+    if command:
+        members.append(Member("operator_id", "string"))
+    for dds, path in fields.items():
+        field_type, optional, units = field_at(defn.body, path)
+        members.append(Member(dds, shape_of(field_type, topic + camel(dds)), optional,
+                              units=units))
+    if not command:
+        members.append(Member("timestamp_ms", "int64"))
+    return StructShape(type_name, tuple(members))
+
+
+def _note(defn: Any, path: str) -> str:
+    if defn is None:
+        return ""
+    field_type, optional, units = field_at(defn.body, path)
+    shape = shape_of(field_type, "_")
+    parts = [idl_type(shape) if not isinstance(shape, StructShape) else "struct"]
+    if units:
+        parts.append(units)
+    if optional:
+        parts.append("optional")
+    return ", ".join(parts)
+
+
+def _command_rule(c: GenericCommand, defn: Any) -> CommandRule:
+    """The kit's command rule for a profile command: numbers clamped to the limits the
+    JSIDL declares for each field (the codec scales them), integers made integers."""
+    puts: dict[str, Put | PutEach | Build] = {}
+    for dds, path in c.fields.items():
+        low = high = None
+        convert = None
+        optional = False
+        if defn is not None:
+            field_type, optional, _units = field_at(defn.body, path)
+            low, high, convert = _limits(field_type)
+        puts[path] = Put(dds, low, high, convert=convert, optional=optional)
+    for path, value in c.constants.items():
+        puts[path] = Build("", lambda _sample, value=value: value, f"= {value!r}")
+    return CommandRule(c.topic, c.message, c.service, c.kind or c.topic, puts,
+                       stop=dict(c.stop) or None, rate=c.rate, lifespan=c.lifespan,
+                       doc="profile command")
+
+
+def _limits(field_type: Any) -> tuple[float | None, float | None, Any]:
+    raw = getattr(field_type, "raw", field_type)
+    if hasattr(field_type, "lower") and hasattr(field_type, "upper"):
+        return field_type.lower, field_type.upper, None
+    if hasattr(raw, "bits") and hasattr(raw, "signed"):
+        span = 1 << raw.bits
+        low, high = (-(span // 2), span // 2 - 1) if raw.signed else (0, span - 1)
+        return low, high, _integer
+    return None, None, None
+
+
+def _integer(value: Any) -> int:
+    if isinstance(value, float) and not value.is_integer():
+        raise ValueError(f"{value} is not a whole number")
+    return int(value)
+
+
+def _labels(defn: Any, path: str) -> Mapping[int, str]:
+    if defn is None or not path:
+        return {}
+    return dict(getattr(field_at(defn.body, path)[0], "labels", {}) or {})
+
+
+def image_actions(mapping: GenericMapping, labels: Mapping[int, str],
+                  fields: Mapping[str, Any], ctx: TranslatorContext) -> list[Action]:
+    """An image mapping's ``ImageProduct`` and ``ImageData`` for one message, after
+    checking the file against the size and SHA-256 the message declares (a mismatch is
+    refused with a ValueError: the translator's error counter and log say why)."""
+    assert ctx.vehicle is not None and mapping.image is not None
+    image = mapping.image
+    raw = get_path(fields, image.data)
+    if not isinstance(raw, bytes | bytearray):
+        raise ValueError(f"{mapping.message}: no {image.data} bytes in the message")
+    data = bytes(raw)
+    digest = hashlib.sha256(data).hexdigest()
+    what = f"{mapping.message} from {ctx.vehicle.vehicle_id}"
+    if image.size_field:
+        declared = get_path(fields, image.size_field)
+        if declared is not None and int(declared) != len(data):
+            raise ValueError(f"{what}: {len(data)} bytes arrived, {image.size_field} "
+                             f"declares {declared}; dropped")
+    if image.sha256_field:
+        declared = get_path(fields, image.sha256_field)
+        text = declared.hex() if isinstance(declared, bytes | bytearray) else \
+            str(declared or "").strip().lower()
+        if text and text != digest:
+            raise ValueError(f"{what}: SHA-256 {digest[:16]}... differs from "
+                             f"{image.sha256_field} {text[:16]}...; dropped")
+    ident = get_path(fields, image.id_field) if image.id_field else None
+    image_id = f"{mapping.message}-{ident}" if ident is not None else \
+        f"{mapping.message}-{digest[:16]}"
+    fmt = image.format
+    if image.format_field:
+        value = get_path(fields, image.format_field)
+        fmt = labels.get(value, str(value)) if isinstance(value, int) else str(value or "")
+    fmt = fmt.lower() or ("bin" if image.kind == "file" else "")
+    product = {"vehicle_id": ctx.vehicle.vehicle_id, "image_id": image_id,
+               "file_name": f"{image_id}.{fmt or 'img'}", "size_bytes": len(data),
+               "sha256": digest, "format": fmt, "capture_time_ms": ctx.timestamp_ms}
+    return list(publish_image(product, data))

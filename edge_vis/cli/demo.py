@@ -49,6 +49,7 @@ from edge_vis.tools.monitor_view import (
     WRITE_TOPICS,
     FleetView,
     control_request,
+    emergency_command,
     waypoint_plan,
     wrench_command,
 )
@@ -219,7 +220,8 @@ class DemoOperator:
         return sorted(v for v, uris in self.services.items() if uri in uris)
 
     def script(self, deadline: float, log: Callable[[str], None]) -> None:
-        """Take control of a ground vehicle, drive it, send it a plan; note what took effect."""
+        """Take control of a ground vehicle, drive it, stop it with the emergency stop and
+        clear that, send it a plan; note what took effect."""
         if not self.poll(30.0, lambda: bool(self.with_service(DRIVER)), deadline):
             log("no drivable vehicle seen on DDS")
             return
@@ -242,6 +244,7 @@ class DemoOperator:
         if moved or self.poll(1.0, lambda: (row.speed or 0.0) > 0.3, deadline):
             self.delivered.append(f"drive {vid}")
             log(f"{vid}: moving at {row.speed:.1f} m/s")
+        self.emergency_stop(vid, deadline, log)
         if PLANNER in self.services.get(vid, set()) and row.latitude is not None:
             self.poll(1.0, deadline=deadline)
             plan = waypoint_plan(vid, self.operator, row.latitude, row.longitude or 0.0,
@@ -250,6 +253,21 @@ class DemoOperator:
             if self.poll(6.0, lambda: row.mission in ("EXECUTING", "COMPLETED"), deadline):
                 self.delivered.append(f"plan {vid}")
                 log(f"{vid}: waypoint plan {row.mission.lower()}")
+
+    def emergency_stop(self, vid: str, deadline: float, log: Callable[[str], None]) -> None:
+        """Set the emergency stop while the vehicle is commanded, then clear it."""
+        row = self.view.row(vid)
+        self._send(f"emergency stop {vid}", "EmergencyCommand", emergency_command(
+            vid, self.operator, self.authority, reason="demo: emergency stop drill"))
+        if not self.poll(5.0, lambda: row.emergency and row.state == "EMERGENCY", deadline):
+            return
+        self.delivered.append(f"emergency stop {vid}")
+        log(f"{vid}: EMERGENCY STOP confirmed by the vehicle")
+        self._send(f"emergency clear {vid}", "EmergencyCommand", emergency_command(
+            vid, self.operator, self.authority, clear=True))
+        if self.poll(5.0, lambda: not row.emergency and row.state != "EMERGENCY", deadline):
+            self.delivered.append(f"emergency clear {vid}")
+            log(f"{vid}: emergency stop cleared, state {row.state}")
 
     def _send(self, what: str, topic: str | None, sample: dict[str, Any] | None) -> None:
         self.sent.append(what)

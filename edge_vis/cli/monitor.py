@@ -152,11 +152,15 @@ def _draw(stdscr: Any, view: FleetView, operator: Operator, args: argparse.Names
     title = (f"edge-vis monitor  domain {args.domain}  operator {operator.operator_id} "
              f"(authority {operator.authority})")
     lines = [title, "", *view.render(now, max(width - 1, 80), operator.selected)]
-    help_line = ("arrows select  c control  r release  d drive  w waypoints  space stop  q quit"
+    help_line = ("arrows select  c control  r release  d drive  w waypoints  e E-STOP  q quit"
                  if not operator.driving else
-                 "DRIVING: up/down effort  left/right turn  space stop  d end  q quit")
+                 "DRIVING: up/down effort  left/right turn  space stop  e E-STOP  d end  q quit")
+    import curses
+
     for y, line in enumerate(lines[: max(0, height - 3)]):
-        stdscr.addnstr(y, 0, line, width - 1)
+        loud = "EMERGENCY STOP" in line or "!E-STOP!" in line
+        stdscr.addnstr(y, 0, line, width - 1,
+                       curses.A_REVERSE | curses.A_BOLD if loud else curses.A_NORMAL)
     if height >= 3:
         stdscr.addnstr(height - 2, 0, operator.message, width - 1)
         stdscr.addnstr(height - 1, 0, help_line, width - 1)

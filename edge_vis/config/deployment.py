@@ -10,7 +10,7 @@ setting's type, default, range and TOML key is written here once. The file layou
     [links.NAME]     url, bandwidth, options, profile   -> LinkProfile (+ LinkSpec keys)
     [dds]            domain, partitions                 -> DdsProfile
     [translators]    enabled, disabled, [translators.NAME] tables -> TranslatorSelection
-    [discovery] [control] [events] [commands] [limits] [bulk]
+    [discovery] [control] [events] [commands] [emergency] [limits] [bulk]
     [report_rates]   Report = Hz or {desired, minimum, priority} (edge_vis.config.report_rates)
     [[vehicles]]     inline tables or {file = "..."} (edge_vis.config.vehicles)
     [[operators]]    id, max_authority; [access] any_operator  -> OperatorPolicy
@@ -186,6 +186,35 @@ class CommandProfile:
 
 
 @dataclass(frozen=True, slots=True)
+class EmergencyProfile:
+    """``[emergency]``: who may set and clear an emergency stop through the relay, and how
+    hard the relay tries to deliver it.
+
+    The relay sends SetEmergency under its own JAUS id, so only the relay can clear it
+    (the Management service accepts ClearEmergency only from a client that set one);
+    these rules say which operators the relay does it for.
+
+    * ``set_by``: ``"operators"`` - any operator the profile lets command through the
+      relay ([[operators]] / access.any_operator, within its maximum authority);
+      ``"anyone"`` - any station on the data model, listed or not.
+    * ``clear_by``: ``"setter"`` - only the operator who set it; ``"authority"`` - the
+      setter or any allowed operator asking with at least the setter's authority;
+      ``"operators"`` - any allowed operator.
+    * ``on_operator_lost``: set the emergency when the operator holding a vehicle
+      vanishes (its DDS writers are gone), not only the dead-man stop.
+    * ``retry_period``/``max_attempts``: SetEmergency (ClearEmergency) is sent again every
+      ``retry_period`` until each component reports EMERGENCY (no longer EMERGENCY), at
+      most ``max_attempts`` times per component and per time the vehicle is found.
+    """
+
+    set_by: str = setting("operators", choices=("operators", "anyone"))
+    clear_by: str = setting("authority", choices=("setter", "authority", "operators"))
+    on_operator_lost: bool = False
+    retry_period: float = setting(0.25, gt=0, unit="s")
+    max_attempts: int = setting(20, ge=1)
+
+
+@dataclass(frozen=True, slots=True)
 class DdsProfile:
     """The DDS domain and partitions the relay publishes in."""
 
@@ -282,6 +311,7 @@ class RelayProfile:
     time: TimeProfile = field(default_factory=TimeProfile)
     events: EventsProfile = field(default_factory=EventsProfile)
     commands: CommandProfile = field(default_factory=CommandProfile)
+    emergency: EmergencyProfile = field(default_factory=EmergencyProfile)
     report_rates: Mapping[str, float] = setting(factory=dict, custom=True)
     vehicles: tuple[VehicleProfile, ...] = setting((), custom=True)
     jsidl: tuple[Path, ...] = setting((), key="catalogue.jsidl")

@@ -66,6 +66,10 @@ OnSample = Callable[[str, dict[str, Any]], object]
 _ANY_SAMPLE = SampleState.Any | ViewState.Any | InstanceState.Any
 _BATCH = 256
 _RETCODE_PRECONDITION_NOT_MET = -4
+#: writers (publication handles) remembered per operator for :meth:`DdsBridge.watch_writers`
+MAX_WATCHED_WRITERS = 1024
+#: seconds between two checks of which watched writers still match
+WRITER_CHECK_PERIOD = 0.1
 #: batches handed to the event loop and not yet delivered; past it the delivery thread
 #: waits, and samples stay in the readers' bounded histories (commands: newest 8)
 MAX_IN_FLIGHT = 64
@@ -178,6 +182,11 @@ class DdsBridge:
         self.max_products = max_products
         self._products: dict[str, dict[tuple[Any, ...], None]] = {}
         self._in_flight = threading.Semaphore(MAX_IN_FLIGHT)
+        #: publication handle -> operator_id of the commands it wrote (watch_writers)
+        self._writers_of: dict[int, str] = {}
+        self._on_writer_gone: Callable[[str], object] | None = None
+        self._gone_loop: asyncio.AbstractEventLoop | None = None
+        self._writers_checked = 0.0
 
     # ------------------------------------------------------------------ writing
 
@@ -328,6 +337,51 @@ class DdsBridge:
             self._start_thread()
             self._guard.set(True)
 
+    def watch_writers(self, on_gone: Callable[[str], object],
+                      loop: asyncio.AbstractEventLoop | None = None) -> None:
+        """Call ``on_gone(operator_id)`` (in ``loop`` if given) once every DDS writer that
+        delivered a subscribed sample naming ``operator_id`` has gone away: the operator
+        station died or closed. Checked by the delivery thread every
+        :data:`WRITER_CHECK_PERIOD` s from the readers' matched publications, so it does not
+        depend on the operator disposing anything."""
+        self._on_writer_gone = on_gone
+        self._gone_loop = loop
+
+    def _check_writers(self) -> None:
+        """Report operators none of whose writers match any reader any more."""
+        writers = self._writers_of
+        if not writers or self._on_writer_gone is None:
+            return
+        matched: set[int] = set()
+        for sub in self._subscriptions:
+            try:
+                matched.update(sub.reader.get_matched_publications())
+            except DDSException:
+                return
+        gone = {handle: op for handle, op in writers.items() if handle not in matched}
+        if not gone:
+            return
+        for handle in gone:
+            del writers[handle]
+        alive = set(writers.values())
+        for operator_id in sorted(set(gone.values()) - alive):
+            log.info("operator %s: every DDS writer gone", operator_id)
+            if self._gone_loop is not None:
+                try:
+                    self._gone_loop.call_soon_threadsafe(self._on_writer_gone, operator_id)
+                except RuntimeError:  # the loop is closed
+                    return
+            else:
+                self._call_gone(operator_id)
+
+    def _call_gone(self, operator_id: str) -> None:
+        try:
+            assert self._on_writer_gone is not None
+            self._on_writer_gone(operator_id)
+        except Exception:
+            self.counters["callback_errors"] += 1
+            log.exception("writer-gone callback failed")
+
     def take(self, max_samples: int = _BATCH) -> list[tuple[str, dict[str, Any]]]:
         """Non-blocking: up to ``max_samples`` received ``(topic, dict)`` of the topics
         subscribed without a callback, oldest first per topic."""
@@ -359,7 +413,12 @@ class DdsBridge:
                     dropped,
                 )
                 continue
-            out.append((sub.spec.name, sub.converter.to_dict(sample)))
+            data = sub.converter.to_dict(sample)
+            if self._on_writer_gone is not None and "operator_id" in data and (
+                    len(self._writers_of) < MAX_WATCHED_WRITERS
+                    or info.publication_handle in self._writers_of):
+                self._writers_of[info.publication_handle] = str(data["operator_id"])
+            out.append((sub.spec.name, data))
         self.counters["received"] += len(out)
         return out
 
@@ -386,7 +445,9 @@ class DdsBridge:
     def _deliver_forever(self) -> None:
         while not self._closed:
             try:
-                self._waitset.wait(duration(seconds=1))
+                # watched writers are checked often; an idle relay sleeps
+                self._waitset.wait(duration(seconds=WRITER_CHECK_PERIOD
+                                            if self._writers_of else 1))
             except DDSException:
                 if self._closed:
                     return
@@ -403,6 +464,11 @@ class DdsBridge:
                         self._hand_over(sub, batch)
                     if not sub.condition.is_triggered():
                         break
+            if self._on_writer_gone is not None:
+                now = time.monotonic()
+                if now - self._writers_checked >= WRITER_CHECK_PERIOD:
+                    self._writers_checked = now
+                    self._check_writers()
 
     def _hand_over(self, sub: _Subscription, batch: list[tuple[str, dict[str, Any]]]) -> None:
         if sub.loop is None:

@@ -67,6 +67,13 @@ class ControlAction(IdlEnum, typename="edge_vis::ControlAction"):
     RELEASE = 1
 
 
+class EmergencyAction(IdlEnum, typename="edge_vis::EmergencyAction"):
+    """What an operator asks for in an :class:`EmergencyCommand`."""
+
+    SET = 0
+    CLEAR = 1
+
+
 class ManagementCommandType(IdlEnum, typename="edge_vis::ManagementCommandType"):
     """A JAUS Management command (prefixed: IDL enumerators share the module's scope;
     dicts may leave the prefix out, ``"STANDBY"``)."""
@@ -195,6 +202,11 @@ class VehicleStatus(IdlStruct, typename="edge_vis::VehicleStatus"):
     link: str = ""
     online: bool = False
     last_seen_ms: int64 = 0
+    #: an emergency stop is in force (set through the relay or reported by the vehicle)
+    emergency: bool = False
+    #: the operator who set it through the relay ("" when set by another JAUS client)
+    emergency_operator: str = ""
+    emergency_reason: str = ""
 
 
 @dataclass
@@ -221,6 +233,8 @@ class ControlStatus(IdlStruct, typename="edge_vis::ControlStatus"):
     rejected_commands: uint32 = 0
     last_rejection: str = ""
     timestamp_ms: int64 = 0
+    #: an emergency stop is in force: no motion command is sent
+    emergency: bool = False
     holders: sequence[ComponentHolder] = field(default_factory=list)
 
 
@@ -405,6 +419,20 @@ class ControlRequest(IdlStruct, typename="edge_vis::ControlRequest"):
     operator_id: str
     action: ControlAction
     authority: uint8 = 0
+
+
+@dataclass
+class EmergencyCommand(IdlStruct, typename="edge_vis::EmergencyCommand"):
+    """An operator sets (SET) or clears (CLEAR) a vehicle's emergency stop; no control is
+    needed. ``authority`` is checked against the operator's maximum and, for CLEAR,
+    against the setter's (profile ``[emergency]``)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    action: EmergencyAction
+    authority: uint8 = 0
+    reason: str = ""
 
 
 @dataclass
@@ -960,6 +988,7 @@ STRUCTS: tuple[type[IdlStruct], ...] = (
     Velocity,
     ControlRequest,
     ControlStatus,
+    EmergencyCommand,
     WrenchEffortCommand,
     VelocityCommand,
     WaypointPlan,

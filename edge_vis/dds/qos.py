@@ -6,6 +6,7 @@ kind       reliability  durability       history               extra
 TELEMETRY  best-effort  volatile         keep-last 1           --
 STATE      reliable     transient-local  keep-last 1           --
 COMMAND    reliable     volatile         keep-last 8           lifespan 500 ms
+EMERGENCY  reliable     volatile         keep-all              --
 PRODUCT    reliable     transient-local  keep-all              --
 BULK       reliable     volatile         keep-all              max blocking 2 s
 =========  ===========  ===============  ====================  ===========================
@@ -29,6 +30,9 @@ Why:
   ``max_command_age`` option covers it when the clocks are synchronised). Volatile: a
   relay that restarts must not replay old commands. Keep-last 8 per vehicle so a burst
   (e.g. a control request followed at once by a command) is not collapsed.
+* **Emergency stops** (``EmergencyCommand``) must arrive however late: a stop that waited
+  is still a stop, and a CLEAR is checked against the rules when it arrives. Reliable,
+  keep-all, no lifespan; volatile so a restarted relay does not replay them.
 * **Image products** (metadata of ATR images) are few, and every one matters to every
   reader including late joiners: reliable, transient-local, keep-all. Memory grows with the
   number of products; dispose products that are no longer of interest.
@@ -91,6 +95,8 @@ def topic_qos(kind: TopicKind, settings: QosSettings | None = None) -> Qos:
             Policy.History.KeepLast(s.command_depth),
             Policy.Lifespan(duration(seconds=s.command_lifespan)),
         )
+    if kind is TopicKind.EMERGENCY:
+        return Qos(reliable, Policy.Durability.Volatile, Policy.History.KeepAll)
     if kind is TopicKind.PRODUCT:
         return Qos(reliable, Policy.Durability.TransientLocal, Policy.History.KeepAll)
     if kind is TopicKind.BULK:

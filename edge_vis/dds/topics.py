@@ -21,6 +21,7 @@ from typing import Any
 from cyclonedds.idl import IdlStruct
 
 from edge_vis.dds import model
+from edge_vis.dds.runtime_types import struct_type
 from edge_vis.errors import PluginConflictError
 
 
@@ -33,6 +34,8 @@ class TopicKind(enum.Enum):
     """Slowly changing state: every reader, including late joiners, must see the latest."""
     COMMAND = "command"
     """Operator to vehicle: must arrive, must not act late."""
+    EMERGENCY = "emergency"
+    """An emergency stop: must arrive, however late; never dropped for its age."""
     PRODUCT = "product"
     """Data products (image metadata): every one must reach every reader, even late ones."""
     BULK = "bulk"
@@ -63,7 +66,7 @@ class TopicSpec:
     @property
     def inbound(self) -> bool:
         """True for topics the relay reads (commands from operators)."""
-        return self.kind is TopicKind.COMMAND
+        return self.kind is TopicKind.COMMAND or self.kind is TopicKind.EMERGENCY
 
     @property
     def typename(self) -> str:
@@ -79,6 +82,7 @@ _STANDARD_KINDS: dict[type[IdlStruct], TopicKind] = {
     model.Velocity: TopicKind.TELEMETRY,
     model.ControlRequest: TopicKind.COMMAND,
     model.ControlStatus: TopicKind.STATE,
+    model.EmergencyCommand: TopicKind.EMERGENCY,
     model.WrenchEffortCommand: TopicKind.COMMAND,
     model.VelocityCommand: TopicKind.COMMAND,
     model.WaypointPlan: TopicKind.COMMAND,
@@ -207,8 +211,11 @@ class TopicRegistry:
 
 def from_declaration(decl: Any) -> TopicSpec:
     """The :class:`TopicSpec` of a translator's topic declaration (``name``,
-    ``type_name`` of :mod:`edge_vis.dds.model`, ``kind``); ValueError names what is wrong."""
-    cls = getattr(model, str(getattr(decl, "type_name", "")), None)
+    ``type_name`` of :mod:`edge_vis.dds.model`, ``kind``), or of a type built at run time
+    from its ``shape`` (:mod:`edge_vis.dds.runtime_types`); ValueError names what is wrong."""
+    shape = getattr(decl, "shape", None)
+    cls = struct_type(shape) if shape is not None else \
+        getattr(model, str(getattr(decl, "type_name", "")), None)
     if not (isinstance(cls, type) and issubclass(cls, IdlStruct)):
         raise ValueError(f"topic {getattr(decl, 'name', decl)!r}: "
                          f"{getattr(decl, 'type_name', None)!r} is not a type of the data model")

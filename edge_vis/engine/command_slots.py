@@ -21,7 +21,7 @@ command kind the relay keeps one *slot*:
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from edge_vis.config import CommandProfile
@@ -93,9 +93,7 @@ class CommandSlot:
             or now - self.last_received < self.profile.deadman_timeout
         ):
             return False
-        stop = Command(last.vehicle_id, last.operator_id, last.kind, last.name,
-                       dict(last.stop), last.service, last.stop, last.priority,
-                       last.service_set)
+        stop = replace(last, fields=dict(last.stop))
         self.pending = Pending(stop, now, is_stop=True)
         self.stops += 1
         return True

@@ -12,6 +12,8 @@ command that expires because the relay could not get control of its component.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from edge_vis.engine.command_slots import CommandSlot
 from edge_vis.engine.state import Changed, EngineState
 from edge_vis.engine.vehicle import Vehicle
@@ -41,7 +43,8 @@ class Commands:
             reason = (f"{command.name} from {command.operator_id} refused: control held by "
                       f"{holder}")
         elif (command.stop is not None or not command.needs_ready) and vehicle.in_emergency():
-            reason = f"{command.name} refused: vehicle in {vehicle.state_name()}"
+            mode = "EMERGENCY (emergency stop)" if vehicle.estop else vehicle.state_name()
+            reason = f"{command.name} refused: vehicle in {mode}"
         elif not vehicle.providers(command.service):
             reason = f"{command.name} refused: no component offers {command.service}"
         elif command.component is not None and not vehicle.offers(command.component,
@@ -60,7 +63,12 @@ class Commands:
             return
         slot = vehicle.commands.get(command.kind)
         if slot is None:
-            slot = vehicle.commands[command.kind] = CommandSlot(state.profile.commands)
+            profile = state.profile.commands
+            if command.rate is not None or command.lifespan is not None:
+                # a command mapping's own throttle replaces the profile's for its kind
+                profile = replace(profile, rate=command.rate or profile.rate,
+                                  lifespan=command.lifespan or profile.lifespan)
+            slot = vehicle.commands[command.kind] = CommandSlot(profile)
         slot.offer(command, now)
 
     def destinations(self, vehicle: Vehicle, command: Command) -> list[JausAddress]:

@@ -14,7 +14,10 @@ half of it. A component that never answers (the JTS example) is renewed every
 Rule 2: a component with the Management service must be READY before commanding: while it
 is not, the relay sends Resume and QueryStatus at most ``max_ready_attempts`` times, then
 proceeds anyway and records a note (the JTS example reports INITIALIZE forever). EMERGENCY
-and FAILURE are never "ready": motion commands wait.
+and FAILURE are never "ready": motion commands wait. A component leaving EMERGENCY (its
+emergency cleared) is driven to READY again with fresh attempts; while in EMERGENCY it
+answers RequestControl with NOT_AVAILABLE yet keeps its controller, so that answer does
+not end control.
 
 Rule 2a: an operator's Standby holds: after the relay sent Standby on an operator's
 behalf it does not drive the component back to READY until the operator sends Resume
@@ -153,6 +156,12 @@ class ComponentControl:
         self.last_response = code
         if self.state not in (ControlState.REQUESTING, ControlState.CONTROLLED):
             return []
+        if code == 1 and self.state is ControlState.CONTROLLED and self.status == EMERGENCY:
+            # Management: a component in EMERGENCY answers even its controller's renewal
+            # with NOT_AVAILABLE but keeps it as controller (and never times it out)
+            renewal = self._renewal_period()
+            self.deadline = now + renewal if renewal else None
+            return []
         if code != 0:
             self.state = ControlState.REFUSED
             self.deadline = now + self.profile.retry_period
@@ -191,7 +200,13 @@ class ComponentControl:
 
     def on_status(self, status: int, now: float) -> list[Outgoing]:
         """ReportStatus(status) arrived."""
-        self.status = status
+        previous, self.status = self.status, status
+        if (previous == EMERGENCY and status not in NOT_OPERATIONAL and status != READY
+                and self.controlled and self.managed):
+            # out of an emergency (cleared): back to READY before commanding again (unless
+            # the operator's Standby holds or this is only the relay's errand)
+            self.ready_attempts = 0
+            return self._drive_ready(now)
         if self.errand or self.hold_standby:
             self.ready_deadline = None
         elif self.controlled and self.managed and status != READY:

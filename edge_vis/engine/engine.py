@@ -21,8 +21,9 @@ component/service tree (:mod:`~edge_vis.engine.finder`), liveness and the silenc
 components (:mod:`~edge_vis.engine.access`), who else holds them (:mod:`~edge_vis.engine.holders`),
 the vehicles' clocks (:mod:`~edge_vis.engine.clocks`), event subscriptions with polling fallback
 (:mod:`~edge_vis.engine.reports`), command throttles and the dead-man
-(:mod:`~edge_vis.engine.commands`) and operator arbitration
-(:mod:`~edge_vis.engine.control_requests`). Report rates follow the bandwidth plan
+(:mod:`~edge_vis.engine.commands`), operator arbitration
+(:mod:`~edge_vis.engine.control_requests`) and the emergency stop
+(:mod:`~edge_vis.engine.estop`). Report rates follow the bandwidth plan
 (:mod:`~edge_vis.engine.rates`); the timer pass is :mod:`~edge_vis.engine.timer_pass`; what
 translators see is built by :mod:`~edge_vis.engine.views`. Those parts share one
 :class:`~edge_vis.engine.state.EngineState`; this class wires them together, routes each
@@ -49,6 +50,7 @@ from edge_vis.engine.access import Access
 from edge_vis.engine.clocks import Clocks
 from edge_vis.engine.commands import Commands
 from edge_vis.engine.control_requests import ControlRequests
+from edge_vis.engine.estop import EmergencyStops
 from edge_vis.engine.finder import Finder
 from edge_vis.engine.holders import Holders
 from edge_vis.engine.liveness import LIVENESS, MANAGEMENT, STATUS_EVERY, Liveness
@@ -60,7 +62,14 @@ from edge_vis.engine.timer_pass import TimerPass
 from edge_vis.engine.vehicle import Vehicle
 from edge_vis.engine.views import EngineSnapshot, SubscriptionView, VehicleSnapshot, Views
 from edge_vis.jaus.address import JausAddress
-from edge_vis.kit.actions import Action, Command, DeclareVehicle, Publish, SendMessage
+from edge_vis.kit.actions import (
+    Action,
+    Command,
+    DeclareVehicle,
+    EmergencyRequest,
+    Publish,
+    SendMessage,
+)
 from edge_vis.kit.contract import Translator
 
 __all__ = [
@@ -103,10 +112,11 @@ class Engine:
         self._finder = Finder(state, self._changed, self._liveness)
         self._commands = Commands(state, self._changed)
         self._control_requests = ControlRequests(state, self._access, self._changed)
+        self._estop = EmergencyStops(state, self._changed)
         self._holders = Holders(state, self._changed)
         self._clocks = Clocks(state, self._access, self._changed)
         self._timer_pass = TimerPass(state, self._finder, self._liveness, self._access,
-                                    self._reports, self._commands, self._rates,
+                                    self._reports, self._commands, self._rates, self._estop,
                                     (self._holders.poll, self._clocks.poll))
         #: the JAUS messages the engine itself handles, by name
         self._handlers: dict[str, Handler] = {
@@ -115,7 +125,7 @@ class Engine:
             "ConfirmControl": self._access.on_confirm,
             "RejectControl": self._access.on_reject,
             "ReportTimeout": self._access.on_timeout,
-            "ReportStatus": self._access.on_status,
+            "ReportStatus": self._on_status,
             "ReportControl": self._holders.on_control,
             "ReportAuthority": self._holders.on_authority,
             "ReportTime": self._clocks.on_time,
@@ -236,6 +246,16 @@ class Engine:
             self._apply(self.manager.on_sample(topic, sample, ctx), now)
         self._timer_pass.run(now)
 
+    def operator_lost(self, operator_id: str, now: float) -> None:
+        """Every DDS writer of ``operator_id`` is gone (its station vanished): with the
+        profile's ``emergency.on_operator_lost`` the vehicles it held are stopped."""
+        if not self._finder.started:
+            self._finder.start(now)
+        if self._state.done:
+            return
+        self._estop.on_operator_lost(operator_id, now)
+        self._timer_pass.run(now)
+
     def on_timer(self, now: float) -> None:
         """The timer armed at :meth:`next_deadline` fired (early or late calls are fine)."""
         if not self._finder.started:
@@ -312,9 +332,19 @@ class Engine:
             ctx = self._views.context(vehicle, now, source)
             self._apply(self.manager.on_message(name, fields, ctx), now)
 
+    def _on_status(self, vehicle: Vehicle, source: JausAddress, fields: Mapping[str, Any],
+                   now: float) -> None:
+        """ReportStatus: readiness for commands, and confirmation of an emergency stop."""
+        self._access.on_status(vehicle, source, fields, now)
+        self._estop.on_status(vehicle, source, vehicle.statuses.get(source, 0), now)
+
     def _changed(self, vehicle: Vehicle, change: str, now: float) -> None:
         """Tell translators ``vehicle`` changed; the next pass visits it."""
         self._state.touch(vehicle)
+        if change == "online":
+            self._estop.on_found(vehicle, now)
+        elif change == "identified":
+            self._estop.on_identified(vehicle, now)
         self._apply(self.manager.on_vehicle(change, self._views.context(vehicle, now)), now)
 
     def _apply(self, actions: Sequence[Action], now: float) -> None:
@@ -325,6 +355,8 @@ class Engine:
             elif isinstance(action, DeclareVehicle):
                 self._finder.declare(action.vehicle_id, action.components, action.name,
                                      action.vehicle_type, now, seen=True)
+            elif isinstance(action, EmergencyRequest):
+                self._estop.request(action, now)
             elif isinstance(action, Publish | SendMessage):
                 self._state.actions.append(action)
             else:

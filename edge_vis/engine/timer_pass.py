@@ -17,6 +17,7 @@ from collections.abc import Callable, Iterable, Sequence
 from edge_vis.engine.access import Access
 from edge_vis.engine.commands import Commands
 from edge_vis.engine.control import ControlState
+from edge_vis.engine.estop import EmergencyStops
 from edge_vis.engine.finder import Finder
 from edge_vis.engine.liveness import Liveness
 from edge_vis.engine.rates import Rates
@@ -32,6 +33,7 @@ class TimerPass:
 
     def __init__(self, state: EngineState, finder: Finder, liveness: Liveness,
                  access: Access, reports: Reports, commands: Commands, rates: Rates,
+                 estop: EmergencyStops,
                  polls: Sequence[Callable[[Vehicle, float], None]] = ()) -> None:
         self._state = state
         self._finder = finder
@@ -42,6 +44,7 @@ class TimerPass:
         self._rates = rates
         #: further per-vehicle duties (holder queries, clocks), each due by its own fields
         self._polls = tuple(polls)
+        self._estop = estop
         self._vehicle_due: float | None = None
         self._due_valid = False
         self._vehicle_count = 0
@@ -118,6 +121,8 @@ class TimerPass:
                 self._finder.query_services(vehicle, now)
             if vehicle.next_liveness is not None and now >= vehicle.next_liveness:
                 self._liveness.probe(vehicle, now)
+        if vehicle.estop is not None:
+            self._estop.pump(vehicle, now)
         self._access.poll(vehicle, now)
         for poll in self._polls:
             poll(vehicle, now)
@@ -142,6 +147,8 @@ class TimerPass:
                     times.append(v.last_seen + silence + 1e-6)
                 for key, slot in v.commands.items():
                     times.append(slot.next_deadline(can_send(v, key)))
+            if v.estop is not None and v.online:
+                times.append(v.estop.next_deadline())
             times.extend(c.next_deadline() for c in v.controls.values())
             times.extend(s.next_deadline() for s in v.subscriptions.values())
         real = [t for t in times if t is not None]

@@ -13,6 +13,7 @@ from edge_vis.engine.arbitration import Arbitration
 from edge_vis.engine.command_slots import CommandSlot
 from edge_vis.engine.control import ComponentControl
 from edge_vis.engine.discovery import Service, ServiceDiscovery, with_inherited
+from edge_vis.engine.estop import Estop
 from edge_vis.engine.subscriptions import Subscription
 from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.contract import STATUS_NAMES, ClockView, HolderView
@@ -69,6 +70,8 @@ class Vehicle:
     #: components the relay holds control of for an errand of its own (SetTime)
     errands: set[JausAddress] = field(default_factory=set)
     set_time_sent: int = 0
+    #: the emergency stop set through the relay, until cleared (:mod:`edge_vis.engine.estop`)
+    estop: Estop | None = None
 
     def __post_init__(self) -> None:
         self.discovery.label = self.vehicle_id
@@ -113,5 +116,6 @@ class Vehicle:
         return "UNKNOWN"
 
     def in_emergency(self) -> bool:
-        """True when any component reports EMERGENCY or FAILURE."""
-        return any(s in (4, 5) for s in self.statuses.values())
+        """True when an emergency stop set through the relay is in force (until every
+        component confirmed its clearing) or any component reports EMERGENCY or FAILURE."""
+        return self.estop is not None or any(s in (4, 5) for s in self.statuses.values())

@@ -87,6 +87,9 @@ class Views:
             notes=notes,
             holders=tuple(h for _a, h in sorted(vehicle.holders.items())),
             clock=vehicle.clock,
+            emergency=vehicle.estop is not None or 5 in vehicle.statuses.values(),
+            emergency_operator=vehicle.estop.operator_id if vehicle.estop else "",
+            emergency_reason=vehicle.estop.reason if vehicle.estop else "",
         )
 
     def context(self, vehicle: Vehicle | None, now: float,

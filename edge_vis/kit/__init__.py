@@ -8,8 +8,8 @@ A translator plugin imports from here and from nothing else of edge-vis::
   :class:`TranslatorContext` (time, relay, vehicles, live catalogue), :class:`VehicleView`,
   :class:`ReportSpec`, :func:`derive_vehicle_id`, :class:`JausAddress`;
 * the actions a hook returns (:mod:`edge_vis.kit.actions`): :class:`Publish`,
-  :class:`Command`, :class:`DeclareVehicle` (the engine's own :class:`SendMessage` and
-  :class:`ShutdownComplete` live beside them);
+  :class:`Command`, :class:`DeclareVehicle`, :class:`EmergencyRequest` (the engine's
+  own :class:`SendMessage` and :class:`ShutdownComplete` live beside them);
 * the rule vocabulary (:mod:`edge_vis.kit.rules`): report and command tables that
   :class:`RuleTranslator` runs and ``edge-vis mappings`` prints, and :func:`path_problem`
   to check a field path against a message definition;
@@ -27,6 +27,7 @@ from edge_vis.kit.actions import (
     Action,
     Command,
     DeclareVehicle,
+    EmergencyRequest,
     Publish,
     SendMessage,
     ShutdownComplete,
@@ -42,6 +43,7 @@ from edge_vis.kit.contract import (
     VehicleView,
     derive_vehicle_id,
 )
+from edge_vis.kit.imagery import CHUNK_BYTES, image_chunks, publish_image
 from edge_vis.kit.rules import (
     NAN,
     Build,
@@ -71,47 +73,12 @@ from edge_vis.kit.rules import (
 from edge_vis.schema import read_table, setting
 
 __all__ = [
-    "NAN",
-    "STATUS_NAMES",
-    "Action",
-    "Build",
-    "ClockView",
-    "Command",
-    "CommandRule",
-    "Computed",
-    "ConfigError",
-    "Const",
-    "DeclareVehicle",
-    "Each",
-    "From",
-    "HolderView",
-    "JausAddress",
-    "Publish",
-    "Put",
-    "PutEach",
-    "ReportRule",
-    "ReportSpec",
-    "RuleTranslator",
-    "SendMessage",
-    "ShutdownComplete",
-    "Spec",
-    "TopicDecl",
-    "Translator",
-    "TranslatorContext",
-    "VehicleView",
-    "clamp",
-    "code_of",
-    "declarations",
-    "derive_vehicle_id",
-    "describe_rules",
-    "extract",
-    "flags",
-    "get_path",
-    "label",
-    "number",
-    "path_problem",
-    "put",
-    "read_table",
-    "set_path",
-    "setting",
+    "CHUNK_BYTES", "NAN", "STATUS_NAMES", "Action", "Build", "ClockView", "Command", "CommandRule",
+    "Computed", "ConfigError", "Const", "DeclareVehicle", "Each", "EmergencyRequest", "From",
+    "HolderView", "JausAddress", "Publish", "Put",
+    "PutEach", "ReportRule", "ReportSpec", "RuleTranslator", "SendMessage", "ShutdownComplete",
+    "Spec", "TopicDecl", "Translator", "TranslatorContext", "VehicleView", "clamp", "code_of",
+    "declarations", "derive_vehicle_id", "describe_rules", "extract", "flags", "get_path",
+    "image_chunks", "label", "number", "path_problem", "publish_image", "put", "read_table",
+    "set_path", "setting",
 ]

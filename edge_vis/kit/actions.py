@@ -10,9 +10,10 @@ The engine never performs anything itself: it returns these from
 * :class:`ShutdownComplete` - every goodbye message has been emitted (and answered, or
   waited for long enough); the runtime may close links.
 
-Translators return :class:`Publish`, :class:`Command` and :class:`DeclareVehicle`; the
-engine turns a ``Command`` into a ``SendMessage`` only when the operator holds control,
-the vehicle's component is controlled and ready, and the rate and lifespan allow it.
+Translators return :class:`Publish`, :class:`Command`, :class:`DeclareVehicle` and
+:class:`EmergencyRequest`; the engine turns a ``Command`` into a ``SendMessage`` only when
+the operator holds control, the vehicle's component is controlled and ready, and the rate
+and lifespan allow it.
 """
 
 from __future__ import annotations
@@ -25,6 +26,8 @@ from edge_vis.jaus.address import JausAddress
 
 #: JAUS transport priority values (AS5669A): low, standard, high, safety critical.
 PRIORITY_LOW, PRIORITY_STANDARD, PRIORITY_HIGH, PRIORITY_SAFETY = 0, 1, 2, 3
+#: the traffic class that jumps every link queue (see :mod:`edge_vis.routing.router`)
+EMERGENCY_CLASS = "emergency"
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,7 +45,8 @@ class SendMessage:
     priority: int = PRIORITY_STANDARD
     service_set: str | None = None
     #: scheduling class on the link (control, command, liveness, telemetry, bulk; "" =
-    #: by ``priority`` only); the link profile maps it to a JAUS priority
+    #: by ``priority`` only); the link profile maps it to a JAUS priority. The
+    #: ``emergency`` class is sent ahead of everything, never paced, queued or dropped
     traffic_class: str = ""
 
 
@@ -65,6 +69,8 @@ class Command:
     EMERGENCY/FAILURE and, when the operator's commands of this kind stop for longer
     than the dead-man timeout, the engine sends ``stop`` itself. ``service_set`` names the
     message set of ``name`` when two sets use that name (see :class:`SendMessage`).
+    ``rate`` (Hz) and ``lifespan`` (s), when given, replace the profile's ``[commands]``
+    throttle for this kind (a profile's command mapping sets them per command).
 
     ``needs_ready``: False for commands that need control but not a READY component
     (Management's Standby, Resume, Shutdown, Reset). ``component`` sends it to that one
@@ -84,6 +90,8 @@ class Command:
     needs_ready: bool = True
     component: JausAddress | None = None
     every_provider: bool = False
+    rate: float | None = None
+    lifespan: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -100,10 +108,28 @@ class DeclareVehicle:
 
 
 @dataclass(frozen=True, slots=True)
+class EmergencyRequest:
+    """An operator asks the relay to set (``action="set"``) or clear (``"clear"``) the
+    emergency stop of a vehicle.
+
+    Not a :class:`Command`: the engine sends it without control, ahead of every other
+    message on the link, never throttled or expired, retransmitted until the vehicle
+    confirms; who may set and clear is the profile's ``[emergency]`` rule.
+    """
+
+    vehicle_id: str
+    operator_id: str
+    action: str
+    authority: int = 0
+    reason: str = ""
+
+
+@dataclass(frozen=True, slots=True)
 class ShutdownComplete:
     """The engine has said goodbye to every vehicle; links may close."""
 
     unanswered: int = 0
 
 
-Action = Union[SendMessage, Publish, Command, DeclareVehicle, ShutdownComplete]  # noqa: UP007
+Action = Union[SendMessage, Publish, Command, DeclareVehicle, EmergencyRequest,  # noqa: UP007
+               ShutdownComplete]

@@ -70,11 +70,16 @@ class TopicDecl:
     """A DDS topic a translator adds: ``name`` carries the data-model type ``type_name``
     (``"GenericReport"``) with the QoS of ``kind`` (``telemetry``, ``state``, ``command``,
     ``product`` or ``bulk``). A declaration, so the kit needs no DDS to describe it; the
-    DDS side resolves the type when the relay opens its topics."""
+    DDS side resolves the type when the relay opens its topics.
+
+    With ``shape`` (a :class:`~edge_vis.kit.shapes.StructShape`) the type is not one of the
+    model's: the DDS side builds it at run time from the shape, and ``type_name`` is its
+    scoped IDL name (a profile mapping's typed topic, ``edge_vis::profile::CameraStatus``)."""
 
     name: str
     type_name: str
     kind: str = "telemetry"
+    shape: Any = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -135,6 +140,11 @@ class VehicleView:
     rejected_commands: int = 0
     last_rejection: str = ""
     notes: tuple[str, ...] = ()
+    #: an emergency stop is in force: set through the relay and not yet cleared, or a
+    #: component reports EMERGENCY; who set it through the relay and why
+    emergency: bool = False
+    emergency_operator: str = ""
+    emergency_reason: str = ""
     holders: tuple[HolderView, ...] = ()
     clock: ClockView | None = None
 
@@ -229,7 +239,8 @@ class Translator(ABC):  # noqa: B024 - every hook has a harmless default
 
         ``change`` is one of ``"identified"`` (identity or services learnt),
         ``"online"``, ``"offline"``, ``"status"`` (management state), ``"control"``
-        (operator arbitration, JAUS access control, who holds each component) and
+        (operator arbitration, JAUS access control, who holds each component),
+        ``"emergency"`` (an emergency stop set, confirmed or cleared through the relay) and
         ``"clock"`` (a new reading of the vehicle's clock).
         """
         return []

@@ -160,7 +160,8 @@ class CommandRule:
     when given, makes it a motion command (dead-man stop, refused in emergency): the stop
     fields, or a function of the command's fields giving them (a zero per joint).
     ``service_set`` names the message set of ``message`` when two sets use the name
-    (``ExecuteList``): the command is then encoded with that set's code.
+    (``ExecuteList``): the command is then encoded with that set's code. ``rate`` (Hz) and
+    ``lifespan`` (s) replace the profile's ``[commands]`` throttle for this kind.
     ``needs_ready``/``every_provider`` are the :class:`~edge_vis.kit.actions.Command`'s;
     ``component``, when given, names the DDS member holding a JAUS address (``S.N.C``)
     the command is sent to instead (empty: the default destination)."""
@@ -177,6 +178,8 @@ class CommandRule:
     needs_ready: bool = True
     every_provider: bool = False
     component: str = ""
+    rate: float | None = None
+    lifespan: float | None = None
 
 
 # ---------------------------------------------------------------------------------- helpers
@@ -474,8 +477,9 @@ class RuleTranslator(Translator):
         return Command(str(sample.get("vehicle_id", "")), str(sample.get("operator_id", "")),
                        rule.kind, rule.message, fields, rule.service,
                        stop=dict(stop) if stop is not None else None,
-                       service_set=rule.service_set, needs_ready=rule.needs_ready,
-                       component=component, every_provider=rule.every_provider)
+                       service_set=rule.service_set, rate=rule.rate, lifespan=rule.lifespan,
+                       needs_ready=rule.needs_ready, component=component,
+                       every_provider=rule.every_provider)
 
     # -- the mapping table -------------------------------------------------------------------
 

@@ -18,6 +18,7 @@ Life cycle (the runtime is one asyncio loop; every call is made from it)::
     await open(deliver, on_state)  resources acquired; state "open"
         │
         ├──► send(packets, peer)           any number of times, never blocks; peer None = broadcast
+        ├──► send_urgent(packets, peer)    the same, ahead of whatever the link still holds
         ├──◄ deliver(name, peer, packets)  called by the link for every good datagram / frame
         └──◄ on_state(name, state, reason) "down" / "open" when the medium goes and comes back
         │
@@ -317,6 +318,17 @@ class Link(ABC):
             tap(self.name, "out", peer, packets)
         self._send(packets, peer)
 
+    def send_urgent(self, packets: Sequence[Packet], peer: Peer | None = None) -> None:
+        """Like :meth:`send`, but ahead of everything the link still holds to write, and
+        never dropped for a full write buffer (an emergency stop). A plugin that buffers
+        overrides :meth:`_send_urgent`; the default is :meth:`_send`."""
+        if self.state not in ("open", "down"):
+            self.counters.dropped("link closed", len(packets))
+            return
+        for tap in self._taps:
+            tap(self.name, "out", peer, packets)
+        self._send_urgent(packets, peer)
+
     async def close(self) -> None:
         """Release the medium; safe to call more than once."""
         if self.state in ("closed", "new"):
@@ -357,6 +369,10 @@ class Link(ABC):
     @abstractmethod
     async def _close(self) -> None:
         """Release the medium."""
+
+    def _send_urgent(self, packets: Sequence[Packet], peer: Peer | None) -> None:
+        """Write packets ahead of anything buffered (default: as :meth:`_send`)."""
+        self._send(packets, peer)
 
     def _received(self, peer: Peer, packets: list[Packet], nbytes: int, *,
                   tapped: bool = False) -> None:

@@ -43,6 +43,14 @@ the oldest packet of the lowest non-empty priority is dropped and counted. On a 
 with ``latest_wins`` a report, Event or query waiting at a low priority is replaced by a
 newer one of the same kind (:func:`edge_vis.routing.traffic.latest_wins_key`).
 
+*Urgent path.* A message sent with ``urgent=True`` (the ``emergency`` traffic class: an
+emergency stop) never enters the queues: it leaves at once as its own
+:class:`SendPackets` with ``urgent`` set, ahead of everything queued, even on a link that
+is backlogged, paced below zero, full or reported busy; it is never dropped for the queue
+limit, and its bytes are charged to the link's budget so the pacing of the rest stays
+honest. The link carries it ahead of its own write buffer (:meth:`Link.send_urgent
+<edge_vis.routing.link.Link.send_urgent>`).
+
 State per link:   ``idle`` ─(budget spent / busy)→ ``backlogged`` ─(queue empty)→ ``idle``
 """
 
@@ -78,6 +86,8 @@ class SendPackets:
     link: str
     peer: Peer | None
     packets: tuple[Packet, ...]
+    #: jump the link's own write buffer too (the urgent path, see the module docstring)
+    urgent: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -370,12 +380,14 @@ class Router:
         return actions
 
     # -- input from local components -----------------------------------------------------
-    def send(self, packet: Packet, now: float, *, ack: bool = False) -> list[Action]:
+    def send(self, packet: Packet, now: float, *, ack: bool = False,
+             urgent: bool = False) -> list[Action]:
         """Send a message from a local component; numbers, fragments and routes it.
 
         ``packet.sequence`` is replaced by the source component's next number. With
         ``ack`` the destination is asked to acknowledge each packet, which is retried and
-        finally reported as :class:`DeliveryFailed`. Raises
+        finally reported as :class:`DeliveryFailed`. ``urgent`` takes the urgent path
+        (see the module docstring). Raises
         :class:`~edge_vis.errors.LocalProtocolError` for a source that is not local or a
         broadcast larger than one packet.
         """
@@ -413,11 +425,12 @@ class Router:
         else:
             mtu = self._links[route.link].mtu if route.link in self._links else JTS_MAX_PAYLOAD
         packets = self._split(packet, mtu, ack)
+        queue = self._urgent if urgent else self._queue
         if route is None:
             for name in self._links:
-                self._queue(actions, name, None, packets, now)
+                queue(actions, name, None, packets, now)
         else:
-            self._queue(actions, route.link, route.peer, packets, now)
+            queue(actions, route.link, route.peer, packets, now)
         if ack:
             for p in packets:
                 self._pending[(p.destination.id, p.sequence)] = _Pending(
@@ -607,6 +620,23 @@ class Router:
             state.drops[reason] += 1
             self.counters[f"dropped: {reason}"] += 1
         self._drain(state, now, actions)
+
+    def _urgent(self, actions: list[Action], link: str, peer: Peer | None,
+                packets: Sequence[Packet], now: float) -> None:
+        """The urgent path: out at once, ahead of the queues; charged to the budget."""
+        state = self._links.get(link)
+        if state is None:
+            self.counters["dropped: unknown link"] += len(packets)
+            return
+        if state.bandwidth_bps is not None:
+            if state.refilled is not None:
+                state.tokens = min(state.burst, state.tokens
+                                   + (now - state.refilled) * state.bandwidth_bps / 8)
+            state.refilled = now
+            state.tokens -= sum(len(p.payload) + 14 + state.overhead for p in packets)
+        state.sent += len(packets)
+        self.counters["sent urgently"] += len(packets)
+        actions.append(SendPackets(link, peer, tuple(packets), urgent=True))
 
     def _supersede(self, state: _LinkState, peer: Peer | None, packet: Packet) -> None:
         """Remove the queued older copy of what ``packet`` replaces (latest wins)."""

@@ -35,7 +35,7 @@ from edge_vis.engine.engine import Engine
 from edge_vis.errors import CodecError, EdgeVisError, EncodeError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import Broadcast, Packet
-from edge_vis.kit.actions import Publish, SendMessage, ShutdownComplete
+from edge_vis.kit.actions import EMERGENCY_CLASS, Publish, SendMessage, ShutdownComplete
 from edge_vis.routing.accounting import Kind, LogLimiter, Tally, losses, tallies_of, totals
 from edge_vis.routing.link import Link, Peer, create_link
 from edge_vis.routing.router import Deliver, DeliveryFailed, Router, RouterConfig, SendPackets
@@ -193,6 +193,7 @@ class Runtime:
         bridge.open_writers([*published, "LinkStatus"])
         subscribed = [t for t in dict.fromkeys(subscribed)]
         if subscribed:
+            bridge.watch_writers(self._on_operator_lost, loop=self._loop)
             bridge.subscribe(subscribed, self._on_sample, loop=self._loop)
         log.info("DDS domain %d, partitions %s: publishing %s; subscribed to %s",
                  self.profile.dds.domain, list(self.profile.dds.partitions) or ["(default)"],
@@ -291,6 +292,16 @@ class Runtime:
         self.engine.receive_sample(topic, sample, now)
         self._pump_engine(now)
 
+    def _on_operator_lost(self, operator_id: str) -> None:
+        """Every DDS writer of ``operator_id`` is gone (see ``DdsBridge.watch_writers``)."""
+        assert self._loop is not None
+        if self.engine is None:
+            return
+        now = self._loop.time()
+        self.counters["operators lost"] += 1
+        self.engine.operator_lost(operator_id, now)
+        self._pump_engine(now)
+
     def _on_link_state(self, link: str, state: str, reason: str) -> None:
         if state == "down":
             log.warning("link %s down: %s", link, reason)
@@ -316,7 +327,10 @@ class Runtime:
                 if link is None:
                     self.counters["send to unknown link"] += 1
                     continue
-                link.send(list(action.packets), action.peer)
+                if action.urgent:
+                    link.send_urgent(list(action.packets), action.peer)
+                else:
+                    link.send(list(action.packets), action.peer)
             elif isinstance(action, Deliver):
                 packet = action.packet
                 if packet.message_code is None:
@@ -367,7 +381,8 @@ class Runtime:
             broadcast=Broadcast.GLOBAL if destination.is_broadcast else Broadcast.NONE,
         )
         try:
-            self._carry_router(self.router.send(packet, now), now)
+            self._carry_router(self.router.send(
+                packet, now, urgent=action.traffic_class == EMERGENCY_CLASS), now)
         except EdgeVisError as exc:
             self.counters["send errors"] += 1
             self._log.warning("send", now, "cannot send %s to %s: %s", action.name,

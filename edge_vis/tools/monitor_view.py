@@ -25,7 +25,8 @@ READ_TOPICS: tuple[str, ...] = (
     "EnvironmentalData", "TransferStatus", "VehicleClock",
 )
 #: command topics the monitor writes
-WRITE_TOPICS: tuple[str, ...] = ("ControlRequest", "WrenchEffortCommand", "WaypointPlan")
+WRITE_TOPICS: tuple[str, ...] = ("ControlRequest", "WrenchEffortCommand", "WaypointPlan",
+                                 "EmergencyCommand")
 #: topics counted as telemetry in a vehicle's rate column
 TELEMETRY = frozenset({"GlobalPose", "LocalPose", "Velocity", "RangeScan",
                        "EnvironmentalData"})
@@ -87,6 +88,10 @@ class VehicleRow:
     images: int = 0
     went_offline: int = 0
     recovered: int = 0
+    emergency: bool = False
+    emergency_operator: str = ""
+    emergency_reason: str = ""
+    last_rejection: str = ""
     samples: Counter[str] = field(default_factory=Counter)
     rates: dict[str, RateMeter] = field(default_factory=dict)
     last_seen: float = 0.0
@@ -148,6 +153,9 @@ class FleetView:
         row.online = online
         row.state = str(s.get("state", row.state))
         row.link = s.get("link", "") or row.link
+        row.emergency = bool(s.get("emergency", False))
+        row.emergency_operator = s.get("emergency_operator", "") or ""
+        row.emergency_reason = s.get("emergency_reason", "") or ""
 
     def _on_GlobalPose(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
         row.latitude, row.longitude = s.get("latitude"), s.get("longitude")
@@ -163,6 +171,8 @@ class FleetView:
         row.control = str(s.get("state", row.control))
         row.controller = s.get("operator_id", "") or ""
         row.authority = int(s.get("authority", 0) or 0)
+        row.emergency = bool(s.get("emergency", row.emergency))
+        row.last_rejection = s.get("last_rejection", "") or ""
         row.holders = [(str(h.get("component", "")), str(h.get("controller", "") or ""),
                         int(h.get("authority", 0) or 0), bool(h.get("is_relay", False)))
                        for h in s.get("holders", None) or []]
@@ -205,6 +215,8 @@ class FleetView:
         for row in self.ordered():
             mark = ">" if row.vehicle_id == selected else " "
             state = row.state if row.online else "OFFLINE"
+            if row.emergency:
+                state = "!E-STOP!"
             if row.latitude is not None and row.longitude is not None:
                 pos = f"{row.latitude:9.5f},{row.longitude:10.5f}"
             else:
@@ -217,6 +229,10 @@ class FleetView:
                     f"{state[:9]:<10}{pos:<20}{heading}{speed} {control[:11]:<12}"
                     f"{row.rate(now):4.1f}")
             lines.append(line[:width])
+            if row.emergency:
+                who = f" set by {row.emergency_operator}" if row.emergency_operator else ""
+                why = f": {row.emergency_reason}" if row.emergency_reason else ""
+                lines.append(f"   *** EMERGENCY STOP{who}{why} ***"[:width])
             extra = []
             if row.jaus_address:
                 extra.append(f"jaus {row.jaus_address}")
@@ -265,7 +281,8 @@ class FleetView:
         return {
             "vehicles": {row.vehicle_id: {
                 "name": row.name, "type": row.vehicle_type, "state": row.state,
-                "online": row.online, "samples": sum(row.samples.values()),
+                "online": row.online, "emergency": row.emergency,
+                "samples": sum(row.samples.values()),
                 "images": row.images, "dropouts": row.went_offline,
                 "recovered": row.recovered} for row in self.ordered()},
             "samples_per_topic": dict(sorted(self.samples.items())),
@@ -281,6 +298,13 @@ def control_request(vehicle_id: str, operator_id: str, authority: int,
     """A ControlRequest sample."""
     return {"vehicle_id": vehicle_id, "operator_id": operator_id,
             "action": "RELEASE" if release else "REQUEST", "authority": authority}
+
+
+def emergency_command(vehicle_id: str, operator_id: str, authority: int, *,
+                      clear: bool = False, reason: str = "") -> dict[str, Any]:
+    """An EmergencyCommand sample: SET, or CLEAR."""
+    return {"vehicle_id": vehicle_id, "operator_id": operator_id,
+            "action": "CLEAR" if clear else "SET", "authority": authority, "reason": reason}
 
 
 def wrench_command(vehicle_id: str, operator_id: str, linear: float,
@@ -313,7 +337,9 @@ class Operator:
 
     Keys: Up/Down select a vehicle (or, in drive mode, change forward effort), Left/Right
     turn in drive mode, ``c`` take control, ``r`` release, ``d`` drive mode on/off,
-    space stop, ``w`` send a waypoint triangle, ``q`` quit.
+    space stop, ``w`` send a waypoint triangle, ``e`` emergency stop (at once; on a
+    vehicle already in emergency, ``e`` then ``y`` clears it, any other key keeps it),
+    ``q`` quit.
     """
 
     STEP = 10.0
@@ -327,6 +353,8 @@ class Operator:
         self.rotational = 0.0
         self.message = ""
         self.quit = False
+        #: the vehicle whose emergency ``y`` would clear (asked by ``e``)
+        self.confirm_clear: str | None = None
 
     def select(self, view: FleetView, step: int) -> None:
         ids = [row.vehicle_id for row in view.ordered()]
@@ -341,6 +369,25 @@ class Operator:
         if self.selected not in view.vehicles:
             self.select(view, 0)
         vid = self.selected
+        pending, self.confirm_clear = self.confirm_clear, None
+        if pending is not None:
+            if key == "y":
+                self.message = f"clearing the emergency stop of {pending}"
+                return [("EmergencyCommand", emergency_command(
+                    pending, self.operator_id, self.authority, clear=True))]
+            self.message = f"{pending}: emergency stop kept"
+            if key in ("e", "n"):
+                return []
+        if key == "e" and vid is not None:
+            if view.vehicles[vid].emergency:
+                self.confirm_clear = vid
+                self.message = f"CLEAR the emergency stop of {vid}? y = clear, any key = keep"
+                return []
+            self.driving = False
+            self.linear = self.rotational = 0.0
+            self.message = f"EMERGENCY STOP sent to {vid}"
+            return [("EmergencyCommand", emergency_command(
+                vid, self.operator_id, self.authority, reason=f"monitor of {self.operator_id}"))]
         if key == "q":
             self.quit = True
             return self.stop() if self.driving else []

@@ -80,8 +80,10 @@ def test_kinds_decide_direction() -> None:
     assert set(registry.inbound()) == {
         "ControlRequest", "WrenchEffortCommand", "VelocityCommand", "WaypointPlan",
         "JointCommand", "EndEffectorCommand", "DeviceCommand", "PlatformCommand",
-        "VectorCommand", "AccelerationLimitCommand", "PoseCommand", "ManagementCommand",
+        "VectorCommand", "AccelerationLimitCommand", "PoseCommand", "EmergencyCommand",
+        "ManagementCommand",
     }
+    assert registry.get("EmergencyCommand").kind is TopicKind.EMERGENCY
     assert registry.get("VehicleClock").kind is TopicKind.STATE
     assert registry.get("GlobalPose").kind is TopicKind.TELEMETRY
     assert registry.get("VehicleIdentification").kind is TopicKind.STATE
@@ -99,6 +101,9 @@ def test_qos_per_kind() -> None:
     assert state[Policy.History] == Policy.History.KeepLast(1)
     command = topic_qos(TopicKind.COMMAND, QosSettings(command_lifespan=0.25))
     assert command[Policy.Lifespan] == Policy.Lifespan(250_000_000)
+    emergency = topic_qos(TopicKind.EMERGENCY)  # a late stop is still a stop
+    assert Policy.Lifespan not in emergency
+    assert emergency[Policy.History] == Policy.History.KeepAll
     assert command[Policy.Durability] == Policy.Durability.Volatile
     assert topic_qos(TopicKind.PRODUCT)[Policy.History] == Policy.History.KeepAll
     with pytest.raises(ValueError, match="command_lifespan"):

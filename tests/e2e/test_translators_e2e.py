@@ -266,8 +266,8 @@ def test_generic_profile_mapping_of_a_user_jsidl(domain_id: int, partition: str,
     registry.register(TopicSpec("WaterQuality", GenericReport, TopicKind.TELEMETRY))
     mapping = {"message": "ReportWaterQuality", "topic": "WaterQuality",
                "query": "QueryWaterQuality", "service": "urn:example:WaterQuality",
-               "rate": 5.0, "fields": {"turbidity_ntu": "turbidity", "ph": "ph",
-                                       "station": "station"}}
+               "rate": 5.0, "generic": True,  # the untyped GenericReport, asked for
+               "fields": {"turbidity_ntu": "turbidity", "ph": "ph", "station": "station"}}
 
     async def body(runtime: Runtime, operator: Any) -> None:
         got = await collect(operator, "WaterQuality", lambda s: s["vehicle_id"] == "Buoy-85")

@@ -241,7 +241,7 @@ def relay_profile(link_url: str, domain: int, partition: str, **overrides: Any) 
         "relay": {"jaus_id": str(RELAY_ID), "authority": 150},
         "links": {"radio": {"url": link_url}},
         "dds": {"domain": domain, "partitions": [partition]},
-        "translators": {"enabled": ["core", "mobility"]},
+        "translators": {"enabled": ["core", "emergency", "mobility"]},
         "operators": [{"id": OPERATOR, "max_authority": 200},
                       {"id": "op-late", "max_authority": 250}],
         "discovery": {"period": 0.5, "liveness_period": 0.25, "lost_after": 3,
@@ -309,7 +309,7 @@ class Rig:
         from edge_vis.dds import DdsBridge
 
         self.operator = DdsBridge(self.domain, (self.partition,))
-        self.operator.open_writers(["ControlRequest", "WrenchEffortCommand"])
+        self.operator.open_writers(["ControlRequest", "WrenchEffortCommand", "EmergencyCommand"])
         for topic in ("GlobalPose", "ControlStatus", "VehicleStatus", "VehicleIdentification"):
             self._readers[topic] = self.operator.reader(topic)
         self._poller = asyncio.get_running_loop().create_task(self._poll())
@@ -369,6 +369,17 @@ class Rig:
         (bridge or self.operator).publish("WrenchEffortCommand", {
             "vehicle_id": self.vehicle_id, "operator_id": operator,
             "propulsive_linear_x": effort})
+
+    def emergency(self, action: str, operator: str = OPERATOR, authority: int = 100,
+                  bridge: Any = None) -> None:
+        (bridge or self.operator).publish("EmergencyCommand", {
+            "vehicle_id": self.vehicle_id, "operator_id": operator, "action": action,
+            "authority": authority, "reason": ""})
+
+    def in_emergency(self) -> bool:
+        """Every Management component of the sim is in EMERGENCY."""
+        states = [c.state for c in self.sim.components.values() if c.state is not None]
+        return bool(states) and all(s == 5 for s in states)
 
     def start_driving(self, period: float = 0.1) -> None:
         """Drive at 10 Hz and re-request control every second (a well-behaved station)."""

@@ -368,3 +368,30 @@ def test_operator_vanishes_mid_drive(domain_id: int, partition: str,
         no_command_without_control(rig, fault_record)
 
     run(rig, body, fault_record)
+
+
+def test_operator_vanishes_mid_drive_emergency(domain_id: int, partition: str,
+                                               fault_record: FaultResult) -> None:
+    """With ``[emergency] on_operator_lost``, the station's process dying mid-drive sets the
+    vehicle's emergency (its DDS writers are gone), well before the dead-man would stop it."""
+    fault_record.fault = "operator vanishes, relay-side emergency"
+    rig = Rig("udp", domain_id, partition)
+    rig.profile_overrides = {"emergency": {"on_operator_lost": True},
+                             "commands": {"rate": 10.0, "lifespan": 0.5,
+                                          "deadman_timeout": 5.0}}
+
+    async def body() -> None:
+        await establish(rig)
+        assert rig.driving()
+        await rig.stop_driving()
+        await rig.close_operator_abruptly()
+        took = await until(rig.in_emergency, 3, "the relay-side emergency")
+        fault_record.recovery_s = took
+        assert not rig.driving(), "the vehicle still moves in EMERGENCY"
+        fault_record.checks.append(f"EMERGENCY {took:.2f} s after the station died")
+        view = rig.relay_view().view
+        assert view.emergency and "vanished" in view.emergency_reason
+        fault_record.checks.append("VehicleStatus.emergency set")
+        no_command_without_control(rig, fault_record)
+
+    run(rig, body, fault_record)

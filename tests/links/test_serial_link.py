@@ -171,3 +171,43 @@ def test_a_device_in_use_is_refused_not_shared() -> None:
             radio.close()
 
     run(scenario())
+
+
+def test_urgent_frame_jumps_the_write_buffer_whole() -> None:
+    """A paced 9,600 baud line with 1.5 s of frames waiting: an urgent frame goes out
+    right after the frame being written (never inside it), ahead of the rest, and every
+    frame still arrives intact."""
+    async def scenario() -> None:
+        radio = Pty()
+        link = create_link(f"serial://{radio.path}?baud=9600")
+        await link.open(Inbox())
+        loop = asyncio.get_running_loop()
+        try:
+            packets = [msg(OCU, ROBOT, bytes([0x10, i]) * 40, sequence=i) for i in range(18)]
+            link.send(packets)  # DLE bytes: stuffed frames, 170-odd bytes each
+            await asyncio.sleep(0.25)  # partway into the second frame or so
+            urgent = msg(OCU, ROBOT, b"\x06\x00\x01\x00", sequence=99)
+            sent_at = loop.time()
+            link.send_urgent([urgent])
+            deframer = SerialDeframer()
+            got: list[Packet] = []
+            arrived: float | None = None
+
+            def drained() -> bool:
+                nonlocal arrived
+                got.extend(read_frames(radio, deframer))
+                if arrived is None and urgent in got:
+                    arrived = loop.time()
+                return len(got) == 19
+
+            await until(drained, timeout=8)
+            assert arrived is not None and arrived - sent_at < 0.4
+            position = got.index(urgent)
+            assert 1 <= position <= 3, f"urgent frame at {position}"
+            assert [p for p in got if p != urgent] == packets  # none cut, none lost
+            assert not deframer.feed(b"", loop.time() + 10)  # no broken frame left over
+        finally:
+            await link.close()
+            radio.close()
+
+    run(scenario())

@@ -91,6 +91,37 @@ def test_emergency_from_anyone_blocks_control_and_motion(wire: Wire) -> None:
     assert wire.query("QueryStatus").fields["status"] == 1
 
 
+def test_emergency_keeps_its_controller_as_the_management_jsidl_says(wire: Wire) -> None:
+    """Receiving.Ready.Controlled.NotAvailable.Emergency: RequestControl gets NOT_AVAILABLE
+    even from the controller, ReleaseControl gets RejectControl NOT_AVAILABLE, control does
+    not time out, Resume/Standby/Reset/Shutdown/SetAuthority are ignored; every client that
+    set an emergency must clear it, then the component pops back to where it was."""
+    wire.ready()
+    wire.send("SetEmergency", {"emergency_code": 1})
+    wire.send("SetEmergency", {"emergency_code": 1}, source=OTHER)
+    out = wire.query("RequestControl", {"authority_code": 100})  # the controller renews
+    assert (out.name, out.fields["response_code"]) == ("ConfirmControl", NOT_AVAILABLE)
+    out = wire.query("ReleaseControl")
+    assert (out.name, out.fields["response_code"]) == ("RejectControl", NOT_AVAILABLE)
+    for name in ("Resume", "Standby", "Reset", "Shutdown"):
+        assert wire.send(name) == []
+    wire.send("SetAuthority", {"authority_code": 90})
+    assert named(wire.advance(12.0), "RejectControl") == []  # 5 s timeout: not in EMERGENCY
+    assert wire.query("QueryControl").fields["subsystem_id"] == 200
+    assert wire.query("QueryAuthority").fields["authority_code"] == 100
+    wire.send("ClearEmergency", {"emergency_code": 1})
+    assert wire.query("QueryStatus").fields["status"] == 5  # OTHER's is still set
+    wire.send("SetWrenchEffort", {"propulsive_linear_effort_x": 50.0})
+    wire.send("ClearEmergency", {"emergency_code": 1}, source=OTHER)
+    assert wire.query("QueryStatus").fields["status"] == 1  # back to READY, controlled
+    assert wire.vehicle.counters["emergency_clears_ignored"] == 0
+    wire.send("ClearEmergency", {"emergency_code": 1})  # nothing stored any more
+    assert wire.vehicle.counters["emergency_clears_ignored"] == 1
+    assert named(wire.advance(4.0), "RejectControl") == []  # a full timeout after the pop
+    assert wire.query("QueryControl").fields["subsystem_id"] == 200
+    assert abs(wire.vehicle.motion.speed) < 0.01  # the effort sent in EMERGENCY was ignored
+
+
 def test_wrench_effort_drives_only_from_controller_in_ready(wire: Wire) -> None:
     wire.advance(1.0)
     wire.take_control()

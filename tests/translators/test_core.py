@@ -26,6 +26,8 @@ def ctx(**changes: Any) -> TranslatorContext:
                              relay_id=JausAddress(42, 1, 1), vehicle=replace(BASE, **changes))
 
 
+NO_ESTOP = {"emergency": False, "emergency_operator": "", "emergency_reason": ""}
+
 CASES = [
     pytest.param("identified", {}, "VehicleIdentification", {
         "vehicle_id": "SimulatedVehicle-126", "name": "SimulatedVehicle", "jaus_subsystem": 126,
@@ -34,14 +36,14 @@ CASES = [
         id="identification"),
     pytest.param("online", {}, "VehicleStatus", {
         "vehicle_id": "SimulatedVehicle-126", "state": "STANDBY", "link": "radio",
-        "online": True, "last_seen_ms": 1_700_000_005_000}, id="online"),
+        "online": True, "last_seen_ms": 1_700_000_005_000, **NO_ESTOP}, id="online"),
     pytest.param("offline", {"online": False, "state": "OFFLINE"}, "VehicleStatus", {
         "vehicle_id": "SimulatedVehicle-126", "state": "OFFLINE", "link": "radio",
-        "online": False, "last_seen_ms": 1_700_000_005_000}, id="offline"),
+        "online": False, "last_seen_ms": 1_700_000_005_000, **NO_ESTOP}, id="offline"),
     pytest.param("control", {}, "ControlStatus", {
         "vehicle_id": "SimulatedVehicle-126", "operator_id": "", "authority": 0,
         "state": "NOT_CONTROLLED", "rejected_commands": 0, "last_rejection": "",
-        "timestamp_ms": 1_700_000_005_000, "holders": []}, id="free"),
+        "timestamp_ms": 1_700_000_005_000, "emergency": False, "holders": []}, id="free"),
     pytest.param("control", {"controller": "op1", "controller_authority": 7,
                              "jaus_control": "controlled", "holders": (
                                  HolderView(JausAddress(126, 1, 1), JausAddress(42, 1, 1), 7,
@@ -52,7 +54,7 @@ CASES = [
                  "ControlStatus", {
         "vehicle_id": "SimulatedVehicle-126", "operator_id": "op1", "authority": 7,
         "state": "CONTROLLED", "rejected_commands": 0, "last_rejection": "",
-        "timestamp_ms": 1_700_000_005_000, "holders": [
+        "timestamp_ms": 1_700_000_005_000, "emergency": False, "holders": [
             {"component": "126.1.1", "controller": "42.1.1", "authority": 7,
              "current_authority": 7, "is_relay": True},
             {"component": "126.1.2", "controller": "9.1.1", "authority": 200,
@@ -66,11 +68,19 @@ CASES = [
         "vehicle_id": "SimulatedVehicle-126", "operator_id": "op1", "authority": 7,
         "state": "REQUESTED", "rejected_commands": 3,
         "last_rejection": "SetWrenchEffort from op2 refused",
-        "timestamp_ms": 1_700_000_005_000, "holders": []}, id="requested-with-rejections"),
+        "timestamp_ms": 1_700_000_005_000, "emergency": False,
+        "holders": []}, id="requested-with-rejections"),
     pytest.param("control", {"controller": "op1", "jaus_control": "refused"}, "ControlStatus", {
         "vehicle_id": "SimulatedVehicle-126", "operator_id": "op1", "authority": 0,
         "state": "REJECTED", "rejected_commands": 0, "last_rejection": "",
-        "timestamp_ms": 1_700_000_005_000, "holders": []}, id="vehicle-refused"),
+        "timestamp_ms": 1_700_000_005_000, "emergency": False,
+        "holders": []}, id="vehicle-refused"),
+    pytest.param("emergency", {"emergency": True, "emergency_operator": "op1",
+                               "emergency_reason": "set by op1", "state": "EMERGENCY"},
+                 "VehicleStatus", {
+        "vehicle_id": "SimulatedVehicle-126", "state": "EMERGENCY", "link": "radio",
+        "online": True, "last_seen_ms": 1_700_000_005_000, "emergency": True,
+        "emergency_operator": "op1", "emergency_reason": "set by op1"}, id="emergency"),
 ]
 
 
@@ -78,7 +88,9 @@ CASES = [
 def test_vehicle_change_to_sample(change: str, view: dict[str, Any], topic: str,
                                   sample: dict[str, Any]) -> None:
     actions = CoreTranslator().on_vehicle(change, ctx(**view))
-    assert actions == [Publish(topic, sample)]
+    assert actions[0] == Publish(topic, sample)
+    # an emergency stop shows in ControlStatus too
+    assert [a.topic for a in actions[1:]] == (["ControlStatus"] if change == "emergency" else [])
 
 
 @pytest.mark.parametrize("name", ["ReportStatus", "ReportHeartbeatPulse"])

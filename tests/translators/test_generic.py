@@ -39,8 +39,9 @@ def catalogue(tmp_path: Path) -> Catalogue:
 
 
 def test_profile_mapping_translates_a_user_message(catalogue: Catalogue) -> None:
+    generic = {**MAPPING, "generic": True}  # the untyped GenericReport, asked for
     prof = from_mapping({"translators": {"enabled": ["generic"],
-                                         "generic": {"mappings": [MAPPING]}}}, file="p.toml")
+                                         "generic": {"mappings": [generic]}}}, file="p.toml")
     manager = TranslationManager.from_selection(prof.translators)
     (tr,) = manager.translators
     assert tr.messages == ("ReportWaterQuality",) and tr.publishes == ("WaterQuality",)
@@ -65,6 +66,29 @@ def test_profile_mapping_translates_a_user_message(catalogue: Catalogue) -> None
     assert fields["station"] == {"name": "station", "text": "pier 3",
                                  "number": fields["station"]["number"]}
     converter_for(TYPES["GenericReport"]).to_struct(sample, "WaterQuality")
+
+
+def test_a_mapping_is_typed_from_the_jsidl(catalogue: Catalogue) -> None:
+    tr = GenericTranslator()
+    tr.configure({"mappings": [MAPPING]})
+    assert tr.topic_types == ()  # the types come from the JSIDL, known once verified
+    tr.verify(catalogue)
+    (decl,) = tr.topic_types
+    members = {m.name: (m.shape, m.optional) for m in decl.shape.members}
+    assert decl.type_name == "edge_vis::profile::WaterQuality"
+    assert members == {"vehicle_id": ("string", False), "turbidity_ntu": ("double", False),
+                       "ph": ("double", True), "station": ("string", True),
+                       "timestamp_ms": ("int64", False)}
+    registry = TopicRegistry.standard()
+    registry.register_all(tr.topic_types, owner=tr.name)
+    topic = registry.get("WaterQuality")
+    message = catalogue.decode(catalogue.encode("ReportWaterQuality",
+                                                {"turbidity": 12.5, "station": "pier 3"}))
+    (action,) = tr.on_message(message.name, message.fields, CTX)
+    struct = converter_for(topic.type).to_struct(action.sample, "WaterQuality")
+    assert struct.turbidity_ntu == pytest.approx(12.5, abs=0.01)  # type: ignore[attr-defined]
+    assert struct.station == "pier 3" and struct.ph is None  # type: ignore[attr-defined]
+    assert type(struct).__idl_typename__ == "edge_vis::profile::WaterQuality"
 
 
 def test_generic_is_empty_without_mappings() -> None:
@@ -120,8 +144,8 @@ def test_paths_and_names() -> None:
 
 # -- removing any one translator leaves the others working -------------------------------
 
-ALL = ("core", "environment", "generic", "iop", "management", "manipulator", "mobility", "ugv",
-       "uuv")
+ALL = ("core", "emergency", "environment", "generic", "iop", "management", "manipulator",
+       "mobility", "ugv", "uuv")
 
 
 def _representative(name: str) -> tuple[str, dict[str, Any], str]:
@@ -130,7 +154,7 @@ def _representative(name: str) -> tuple[str, dict[str, Any], str]:
         return "ReportStatus", {"status": 1, "reserved": 0}, "VehicleStatus"
     if name == "mobility":
         return "ReportGlobalPose", {"latitude": 1.0, "longitude": 2.0}, "GlobalPose"
-    if name in ("generic", "management"):  # no report rules (management: commands, clock)
+    if name in ("generic", "emergency", "management"):  # nothing of their own from JAUS
         return "", {}, ""
     cls = {t.name: type(t) for t in TranslationManager.from_selection(
         TranslatorSelection((name,))).translators}[name]
@@ -201,7 +225,7 @@ def test_mappings_follow_the_profile(tmp_path: Path, capsys: pytest.CaptureFixtu
     assert main(["mappings", "--profile", str(profile)]) == 0
     text = capsys.readouterr().out
     assert "## generic" in text and "## mobility" not in text
-    assert "fields[name=turbidity_ntu] ← turbidity" in text
+    assert "turbidity_ntu ← turbidity" in text  # a typed topic: the member itself
 
 
 @pytest.mark.parametrize(("message", "path", "problem"), [

@@ -14,11 +14,14 @@ Theory of operation
 * Access control follows AS5710A: higher authority pre-empts (the old controller gets
   RejectControl CONTROL_RELEASED), a lower one gets ConfirmControl INSUFFICIENT_AUTHORITY,
   control not renewed within the timeout is released with RejectControl.
-* Management (AS5710A Management protocol behaviour): INITIALIZE -> STANDBY after
-  ``init_time``; Resume (STANDBY -> READY) and Standby (READY -> STANDBY) only from the
-  controller; Shutdown and Reset only from the controller and not in EMERGENCY: control
-  ends with RejectControl, then SHUTDOWN for good, or INITIALIZE again; emergencies from
-  anyone, cleared by the clients that set them.
+* Management: INITIALIZE -> STANDBY after ``init_time``; Resume/Standby only from the
+  controller; emergencies from anyone, cleared by the clients that set them (all of
+  them), back to the state before. In EMERGENCY, as the JSIDL says: RequestControl is
+  answered NOT_AVAILABLE (even to the controller, who keeps control), ReleaseControl with
+  RejectControl NOT_AVAILABLE (control kept), control does not time out, SetAuthority,
+  Reset, Shutdown, Standby and Resume are ignored, and no command moves the vehicle.
+* Management (AS5710A): Shutdown and Reset only from the controller and not in EMERGENCY:
+  control ends with RejectControl, then SHUTDOWN for good, or INITIALIZE again.
 * Time: ReportTime (time and date, per the query's presence vector) from a clock that is
   ``clock_offset`` seconds off UTC; SetTime only from the controller.
 * Commands (SetWrenchEffort, list manager, ExecuteList) are obeyed only from the
@@ -230,7 +233,8 @@ class SimVehicle:
         times = [self._physics_time + DT, self._dropout_start, self._dropout_end,
                  self._next_malformed, self._next_hello, self._next_environment, self._next_atr]
         for comp in self.components.values():
-            if comp.controller is not None and self.spec.control_timeout > 0:
+            if (comp.controller is not None and self.spec.control_timeout > 0
+                    and comp.state != EMERGENCY):
                 times.append(comp.control_renewed + self.spec.control_timeout)
             if comp.events is not None:
                 deadline = comp.events.next_deadline()
@@ -330,6 +334,9 @@ class SimVehicle:
 
     def _control_timeout(self, comp: Component, now: float) -> list[Action]:
         timeout = self.spec.control_timeout
+        if comp.state == EMERGENCY:  # no time-out in EMERGENCY: a full one after it
+            comp.control_renewed = now
+            return []
         if comp.controller is None or timeout <= 0 or now - comp.control_renewed < timeout:
             return []
         self.counters["control_timeouts"] += 1
@@ -347,6 +354,8 @@ class SimVehicle:
             return confirm(NOT_AVAILABLE)
         unavailable = comp.state in NOT_AVAILABLE_STATES and not (
             self.spec.faults.jts_example and comp.state == INITIALIZE)
+        if comp.state == EMERGENCY:  # the controller, if any, keeps control
+            return confirm(NOT_AVAILABLE)
         if comp.controller == source:
             if authority < comp.default_authority:
                 return self._lose_control(comp, "authority below the default")
@@ -373,12 +382,15 @@ class SimVehicle:
                          now: float) -> list[Action]:
         if comp.controller != source:
             return []
+        if comp.state == EMERGENCY:
+            return self._send(comp, source, "RejectControl", {"response_code": NOT_AVAILABLE})
         return self._lose_control(comp, "ReleaseControl")
 
     def _set_authority(self, comp: Component, source: JausAddress, fields: dict[str, Any],
                        now: float) -> list[Action]:
         code = fields["authority_code"]
-        if comp.controller == source and comp.default_authority <= code <= comp.authority:
+        if (comp.state != EMERGENCY and comp.controller == source
+                and comp.default_authority <= code <= comp.authority):
             comp.authority = code
         return []
 
@@ -471,9 +483,13 @@ class SimVehicle:
 
     def _clear_emergency(self, comp: Component, source: JausAddress, fields: dict[str, Any],
                          now: float) -> list[Action]:
+        if source not in comp.emergency_ids:  # only a client that set one may clear
+            self.counters["emergency_clears_ignored"] += 1
+            return []
         comp.emergency_ids.discard(source)
         if comp.state == EMERGENCY and not comp.emergency_ids:
             comp.state = comp.saved_state
+            comp.control_renewed = now
             log.warning("%s: emergency cleared by %s", self.name, source)
         return []
 
