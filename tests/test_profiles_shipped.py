@@ -16,6 +16,7 @@ DEPLOYMENTS = [ROOT / "profiles" / "default.toml", ROOT / "profiles" / "demo.tom
 #: every TOML file shipped in profiles/ and edge_vis/data/ (some are the same file through
 #: a symlink: each is checked under both names, as a user may name either)
 SHIPPED = sorted({*(ROOT / "profiles").glob("*.toml"), *(ROOT / "profiles").glob("*/*.toml"),
+                  *(ROOT / "profiles" / "examples").glob("*/*.toml"),
                   *(ROOT / "edge_vis" / "data").glob("*.toml"),
                   *(ROOT / "edge_vis" / "data").glob("*/*.toml"), ROOT / "deploy" / "relay.toml"})
 KIND_BY_FOLDER = {"sim": "sim", "vehicles": "vehicle", "links": "link"}
@@ -31,6 +32,8 @@ def test_every_shipped_profile_is_found() -> None:
 def test_every_shipped_profile_checks_ok(path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["check", str(path)]) == 0, capsys.readouterr().err
     kind = KIND_BY_FOLDER.get(path.parent.name, "deployment")
+    if path.parent.parent.name == "examples":  # an example's folder holds both kinds
+        kind = "deployment" if "[relay]" in path.read_text() else "vehicle"
     assert capsys.readouterr().out.startswith(f"OK {path}: {kind} profile: ")
 
 

@@ -34,10 +34,11 @@ message declares and publishes it as ``ImageProduct`` + ``ImageData`` chunks
 
 The tables are declared as dataclasses and read by the validation kit. Before the relay
 starts (and in ``edge-vis check``), :meth:`GenericTranslator.verify` looks every message,
-query, service and field path up in the live catalogue, the profile's own JSIDL included.
-Field paths start at the message's fields: a body that is one record is flattened when
-decoded, so its record's name is not part of the path (``turbidity``, not
-``water_quality_rec.turbidity``).
+query, service and field path up in the live catalogue, the profile's own JSIDL included,
+and names each one missing. Field paths start at the message's fields; a body that is one
+record is flattened when decoded, and a path qualified by that record's name
+(``water_quality_rec.turbidity``, as the JSIDL nests it) is read as the flattened one
+(``turbidity``), in mappings, images and commands alike.
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ from __future__ import annotations
 import difflib
 import hashlib
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Literal
 
 from edge_vis.kit import (
@@ -69,6 +70,7 @@ from edge_vis.kit import (
     path_problem,
     publish_image,
     read_table,
+    resolve_path,
     setting,
 )
 from edge_vis.kit.shapes import (
@@ -294,8 +296,9 @@ def _image_problems(image: ImageOptions, defn: Any) -> Iterator[tuple[str, str]]
         path = getattr(image, key)
         if not path:
             continue
-        if problem := path_problem(defn.body, path):
-            yield f"image.{key}", f"{path!r} of {defn.name}: {problem}"
+        path, problem = resolve_path(defn.body, path)
+        if problem:
+            yield f"image.{key}", f"{getattr(image, key)!r} of {defn.name}: {problem}"
             continue
         shape = shape_of(field_at(defn.body, path)[0], "_")
         kind = "int" if isinstance(shape, str) and "int" in shape else shape
@@ -327,6 +330,7 @@ def command_problems(command: GenericCommand, catalogue: Any) -> Iterator[tuple[
     for path, key in [*paths.items(), *((p, f"stop.{p}") for p in command.stop)]:
         if problem := path_problem(defn.body, path):
             yield key, f"{path!r} of {command.message}: {problem}"
+    paths = {resolve_path(defn.body, p)[0]: key for p, key in paths.items()}
     missing = [f.name for f in defn.body.fields if not f.optional
                and not any(p == f.name or p.startswith(f.name + ".") for p in paths)]
     if missing:
@@ -336,6 +340,39 @@ def command_problems(command: GenericCommand, catalogue: Any) -> Iterator[tuple[
     if declared and command.service not in declared:
         yield "service", (f"{command.service!r} does not declare {command.message} "
                           f"(declared by {', '.join(declared)})")
+
+
+def resolved(mapping: GenericMapping, catalogue: Any) -> GenericMapping:
+    """``mapping`` with its field paths (and its image's) as decoded fields hold them: a
+    record-qualified path of a flattened body loses the record's name."""
+    defn = _lookup(catalogue, mapping.message)
+    if defn is None:
+        return mapping
+
+    def path(p: str) -> str:
+        return resolve_path(defn.body, p)[0] if p else p
+
+    image = mapping.image
+    if image is not None:
+        image = replace(image, data=path(image.data), format_field=path(image.format_field),
+                        id_field=path(image.id_field), size_field=path(image.size_field),
+                        sha256_field=path(image.sha256_field))
+    return replace(mapping, fields={dds: path(p) for dds, p in mapping.fields.items()},
+                   image=image)
+
+
+def resolved_command(command: GenericCommand, catalogue: Any) -> GenericCommand:
+    """``command`` with its field paths as the encoder takes them (see :func:`resolved`)."""
+    defn = _lookup(catalogue, command.message)
+    if defn is None:
+        return command
+
+    def path(p: str) -> str:
+        return resolve_path(defn.body, p)[0]
+
+    return replace(command, fields={dds: path(p) for dds, p in command.fields.items()},
+                   constants={path(p): v for p, v in command.constants.items()},
+                   stop={path(p): v for p, v in command.stop.items()})
 
 
 def _lookup(catalogue: Any, name: str) -> Any:
@@ -379,8 +416,9 @@ class GenericTranslator(RuleTranslator):
 
     def verify(self, catalogue: Any, source: str = "") -> None:
         """Every message, query, service and field path must exist in ``catalogue``; a
-        command must set every field its message requires. Then the topic types and the
-        command limits are built from the JSIDL."""
+        command must set every field its message requires. Record-qualified paths are then
+        read as the flattened ones, and the topic types and the command limits are built
+        from the JSIDL."""
         where = f"translators.{self.name}"
         problems = [(source, f"{where}.mappings[{i}].{key}", reason)
                     for i, m in enumerate(self.mappings)
@@ -390,7 +428,8 @@ class GenericTranslator(RuleTranslator):
                      for key, reason in command_problems(c, catalogue)]
         if problems:
             raise ConfigError(problems)
-        self._set(self.mappings, self.commands, catalogue)
+        self._set(tuple(resolved(m, catalogue) for m in self.mappings),
+                  tuple(resolved_command(c, catalogue) for c in self.commands), catalogue)
 
     def _set(self, mappings: tuple[GenericMapping, ...], commands: tuple[GenericCommand, ...],
              catalogue: Any = None) -> None:

@@ -1,16 +1,20 @@
-"""The ``uuv`` translator: a custom underwater vehicle (message set ``uuv``). No I/O.
+"""The ``uuv`` translator: ocean data and ATR image notices of the shipped ``uuv`` set. No I/O.
 
-An example of a vendor translator written against the public plugin API only; deleting
-``"uuv"`` from the profile's ``[translators] enabled`` list (or adding it to ``disabled``)
-removes it and leaves every other translator working.
+Everything else of the shipped UUV support is data: the message set is JSIDL
+(``edge_vis/data/jsidl/uuv/``) and a UUV is discovered from its ``VendorHello`` by a
+vehicle profile (``profiles/vehicles/uuv.toml``, ``[discovery] hello``). This translator
+stays, written against the public plugin API only, as the example of what a profile
+mapping cannot say: samples of the shipped typed topics with computed fields.
 
-* Discovery: ``VendorHello`` (broadcast by vehicles without JAUS Discovery) ->
-  :class:`~edge_vis.kit.actions.DeclareVehicle` with the vehicle's name, type, JAUS ID
-  and services. A vehicle that sends nothing at all is described in a static vehicle
-  profile instead (``components`` with their services); the engine declares it at start-up.
-* ReportOceanEnvironment -> ``EnvironmentalData`` (deg C, PSU, m, m/s, rad).
-* ReportAtrImageAvailable -> ``ImageProduct`` announcing the ATR image (with its target)
-  that the bulk image channel fetches and checks against the SHA-256.
+* ReportOceanEnvironment -> ``EnvironmentalData`` (deg C, PSU, m, m/s, rad; a field not
+  reported is NaN, never 0).
+* ReportAtrImageAvailable -> ``ImageProduct`` announcing the ATR image: an image id and
+  file name made of the message's fields, the format's label, the SHA-256 as hex and a
+  target list built from four fields; the bulk image channel fetches the image and checks
+  it against the SHA-256.
+
+Deleting ``"uuv"`` from the profile's ``[translators] enabled`` list (or adding it to
+``disabled``) removes it and leaves every other translator working.
 """
 
 from __future__ import annotations
@@ -20,22 +24,14 @@ from typing import Any
 
 from edge_vis.kit import (
     NAN,
-    Action,
     Computed,
     Const,
-    DeclareVehicle,
     From,
-    JausAddress,
     ReportRule,
     RuleTranslator,
-    TranslatorContext,
-    derive_vehicle_id,
-    describe_rules,
-    label,
 )
 
 UUV = "urn:edge-vis:uuv:"
-VEHICLE_TYPES = {0: "UNKNOWN", 1: "AUV", 2: "ROV", 3: "GLIDER", 4: "USV", 5: "HYBRID"}
 IMAGE_FORMATS = {0: "jpeg", 1: "png", 2: "tiff", 3: "geotiff", 4: "raw_sonar", 5: "xtf",
                  6: "raw_camera"}
 INT64_MAX = (1 << 63) - 1
@@ -62,28 +58,8 @@ def _targets(f: Mapping[str, Any]) -> list[dict[str, Any]]:
              "depth": NAN}]
 
 
-def _services(f: Mapping[str, Any]) -> tuple[tuple[str, str], ...]:
-    return tuple((str(s["uri"]), f"{int(s['major_version'])}.{int(s['minor_version'])}")
-                 for s in f.get("services") or ())
-
-
-def hello_declaration(fields: Mapping[str, Any]) -> DeclareVehicle | None:
-    """The vehicle a VendorHello describes (None when its JAUS ID is unusable)."""
-    jid = fields.get("jaus_id") or {}
-    try:
-        address = JausAddress(int(jid["subsystem"]), int(jid["node"]), int(jid["component"]))
-    except (KeyError, TypeError, ValueError):
-        return None
-    if address.is_broadcast or 0 in (address.subsystem, address.node, address.component):
-        return None
-    name = str(fields.get("vehicle_name", "") or "")
-    kind = label(VEHICLE_TYPES)(fields.get("vehicle_type", 0))
-    return DeclareVehicle(derive_vehicle_id(name, address.subsystem),
-                          {address: _services(fields)}, name=name, vehicle_type=kind)
-
-
 class UuvTranslator(RuleTranslator):
-    """The ``uuv`` message set -> vehicle declaration, EnvironmentalData, ImageProduct."""
+    """The ``uuv`` message set -> EnvironmentalData, ImageProduct."""
 
     name = "uuv"
     report_rules = (
@@ -105,25 +81,6 @@ class UuvTranslator(RuleTranslator):
                                         "target_class, confidence, latitude, longitude")},
                    stamp=False, doc="announces the image; the bulk channel fetches it"),
     )
-    extra_messages = ("VendorHello",)
-
-    def on_message(
-        self, name: str, fields: Mapping[str, Any], ctx: TranslatorContext
-    ) -> list[Action]:
-        if name == "VendorHello":
-            declaration = hello_declaration(fields)
-            return [declaration] if declaration is not None else []
-        return super().on_message(name, fields, ctx)
-
-    def describe(self) -> list[dict[str, Any]]:
-        hello = ReportRule("VendorHello", "(vehicle declaration)",
-                           {"vehicle_id": Computed(lambda f: "", "vehicle_name-subsystem"),
-                            "name": From("vehicle_name"),
-                            "vehicle_type": From("vehicle_type"),
-                            "components": Computed(lambda f: "", "jaus_id -> services[]")},
-                           doc="DeclareVehicle: discovery without QueryIdentification; "
-                               "VehicleIdentification follows from the core translator")
-        return describe_rules(self.name, (hello,), ()) + super().describe()
 
 
 def _format(f: Mapping[str, Any]) -> str:

@@ -1,6 +1,8 @@
 """The message catalogue: JAUS message definitions by code and name, and payload codecs.
 
-Imports the built-in message sets and the ``edge_vis.messages`` entry points; no other I/O.
+Imports the built-in message sets and the ``edge_vis.messages`` entry points, and reads
+the message sets the package ships as JSIDL (``edge_vis/data/jsidl/SET/*.xml``, one folder
+per set, named after it: the ``uuv`` set); no other I/O.
 
 A *payload* is what the AS5669A transport carries: the 2-byte little-endian message code
 followed by the body. :meth:`Catalogue.decode` turns a payload into a :class:`Message`;
@@ -29,6 +31,8 @@ import logging
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from functools import cache
+from importlib import resources
+from pathlib import Path
 from typing import Any
 
 from edge_vis import plugins
@@ -46,6 +50,7 @@ __all__ = [
     "Catalogue",
     "Message",
     "default_catalogue",
+    "shipped_jsidl_sets",
     "unwrap_event",
     "wrap_event",
 ]
@@ -56,6 +61,8 @@ log = logging.getLogger(__name__)
 EVENT = "Event"
 #: the package holding the built-in sets; its ``BUILTIN_SETS`` names the modules
 BUILTIN_PACKAGE = "edge_vis.jaus.messages"
+#: the folder of the package holding the sets shipped as JSIDL, one sub-folder per set
+SHIPPED_JSIDL = ("data", "jsidl")
 
 
 @dataclass(frozen=True, slots=True)
@@ -393,9 +400,18 @@ def _plugin_defs(name: str) -> tuple[MessageDef, ...]:
     return tuple(defs)
 
 
+def shipped_jsidl_sets() -> dict[str, Path]:
+    """The message sets shipped as JSIDL: set name -> its folder (sorted by name)."""
+    root = Path(str(resources.files("edge_vis").joinpath(*SHIPPED_JSIDL)))
+    if not root.is_dir():
+        return {}
+    return {d.name: d for d in sorted(root.iterdir()) if d.is_dir()}
+
+
 @cache
 def default_catalogue() -> Catalogue:
-    """The built-in sets plus every ``edge_vis.messages`` plugin, built once and cached.
+    """The built-in sets, the sets shipped as JSIDL and every ``edge_vis.messages`` plugin,
+    built once and cached.
 
     Raises PluginLoadError naming a set or plugin that fails to import or holds a broken
     definition, PluginConflictError when two of them claim one code differently.
@@ -415,6 +431,10 @@ def default_catalogue() -> Catalogue:
         if defs is None:
             raise PluginLoadError(f"message set {module_name} has no MESSAGES")
         cat.add(defs, source=module_name)
+    from edge_vis.catalogue.jsidl import load_jsidl
+
+    for set_name, folder in shipped_jsidl_sets().items():
+        cat.add(load_jsidl(folder, service_set=set_name), source=f"shipped JSIDL {set_name}")
     for entry in plugins.entries(plugins.MESSAGES):
         source = f"plugin {entry.name} ({entry.target})"
         cat.add(_plugin_defs(entry.name), source=source)

@@ -5,7 +5,8 @@ folder (:mod:`edge_vis.config.kinds`), or given with ``--kind``, and the file is
 against that kind's schema. A deployment profile is checked as ``edge-vis run`` starts:
 every link URL and its options by its link plugin (nothing is opened), the translators
 it enables built with their ``[translators.NAME]`` tables, and what those tables name
-(generic mappings: message, query, service, field paths) looked up in the message
+(generic mappings: message, query, service, field paths) and what vehicle discovery
+profiles name (hello or passive messages, hello field paths) looked up in the message
 catalogue with the profile's own JSIDL. Prints ``OK``, the kind and a one-line summary,
 or every problem (file, key path, problem) and exits with status 2. Reads the file and
 the files it references.
@@ -32,6 +33,7 @@ from edge_vis.config.kinds import (
     profile_kind,
 )
 from edge_vis.config.vehicles import read_vehicle
+from edge_vis.engine.announcements import discovery_problems
 from edge_vis.engine.manager import TranslationManager
 from edge_vis.errors import ConfigError, PluginError
 from edge_vis.schema import Reader
@@ -95,7 +97,14 @@ def check_deployment(path: Path, data: Mapping[str, Any]) -> str:
         catalogue = profile_catalogue(profile.jsidl)
     except PluginError as exc:  # a JSIDL code clashing with a known message
         raise ConfigError([(str(path), "catalogue.jsidl", str(exc))]) from exc
-    manager.verify(catalogue, str(path))
+    problems: list[tuple[str, str, str]] = []
+    try:
+        manager.verify(catalogue, str(path))
+    except ConfigError as exc:
+        problems.extend(exc.problems)
+    problems.extend(discovery_problems(profile.vehicles, catalogue, str(path)))
+    if problems:
+        raise ConfigError(problems)
     return (f"relay {profile.jaus_id}, {len(profile.links)} link(s), "
             f"{len(profile.vehicles)} vehicle(s), {len(manager.translators)} translator(s)")
 
@@ -106,7 +115,11 @@ def check_vehicle(path: Path, data: Mapping[str, Any]) -> str:
     where = f"subsystem {vehicle.subsystem}" if vehicle.subsystem is not None else \
         "subsystem from discovery"
     static = f", static ({len(vehicle.components)} component(s))" if vehicle.is_static else ""
-    return f"vehicle {vehicle.vehicle_id!r}, {where}{static}"
+    found = vehicle.discovery
+    how = "" if found is None else \
+        f", found by its hello {found.hello}" if found.hello else ", found passively"
+    who = repr(vehicle.vehicle_id) if vehicle.vehicle_id else "family (id from each vehicle)"
+    return f"vehicle {who}, {where}{static}{how}"
 
 
 def check_sim(path: Path, data: Mapping[str, Any]) -> str:

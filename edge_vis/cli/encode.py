@@ -4,6 +4,8 @@
 --source 126.1.199 --destination 42.1.1`` prints one line of hex per datagram (more than
 one when the message exceeds ``--mtu`` and travels as a large data set). Bytes fields take
 hex strings, as ``edge-vis decode`` prints them, so the two commands round-trip.
+``--jsidl FILE...`` adds a user's JSIDL (files or folders), so custom messages encode too:
+``edge-vis encode ReportBatteryPack --jsidl BatteryPack.xml --json '{...}' ...``.
 """
 
 from __future__ import annotations
@@ -11,8 +13,10 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
-from edge_vis.catalogue import Catalogue, default_catalogue
+from edge_vis.catalogue import Catalogue
+from edge_vis.catalogue.jsidl import profile_catalogue
 from edge_vis.codec.jsonform import record_from_json
 from edge_vis.codec.types import MessageDef
 from edge_vis.errors import EncodeError
@@ -36,17 +40,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ack", action="store_true", help="request an acknowledgement")
     parser.add_argument("--mtu", type=int, default=JTS_MAX_PAYLOAD,
                         help=f"largest payload per packet (default {JTS_MAX_PAYLOAD})")
+    parser.add_argument("--jsidl", nargs="+", default=[], metavar="FILE",
+                        help="JSIDL files or folders whose messages encode too (as a "
+                             "profile's catalogue.jsidl)")
 
 
 def run(args: argparse.Namespace) -> int:
     """Encode and print the datagram(s)."""
-    catalogue = default_catalogue()
+    catalogue = profile_catalogue([Path(p) for p in args.jsidl])
     key: str | int = args.message
     if args.message.lower().startswith("0x"):
         key = int(args.message, 16)
     definition = catalogue.get(key) if isinstance(key, int) else _by_name(catalogue, key)
     if definition is None:
-        raise EncodeError(f"unknown message {args.message!r} (see 'edge-vis messages')")
+        hint = "" if args.jsidl else "; a message of your own needs --jsidl FILE"
+        raise EncodeError(f"unknown message {args.message!r} (see 'edge-vis messages'"
+                          f"{hint})")
     try:
         fields = json.loads(args.json)
     except json.JSONDecodeError as exc:

@@ -12,10 +12,12 @@ Four kinds of TOML file configure edge-vis, each with its own schema:
   medium, :class:`~edge_vis.bandwidth.linkspec.LinkSpec`.
 
 The top-level keys tell them apart: each kind has keys no other has (``[relay]``,
-``vehicle_id``, ``seed``, ``bit_rate``...), and ``[[vehicles]]`` entries of a deployment
-have ``vehicle_id`` or ``file`` where a sim's have ``name``. When the keys do not tell
-(an empty file, only keys two kinds share, or keys of two kinds mixed), the folder decides
-if it names one of the candidates (``sim``, ``vehicles``, ``links``).
+``vehicle_id``, ``seed``, ``bit_rate``...), ``[[vehicles]]`` entries of a deployment
+have ``vehicle_id`` or ``file`` where a sim's have ``name``, and a ``[discovery]`` table
+holds a deployment's timing (``period``...) or how a vehicle is found (``hello``...).
+When the keys do not tell (an empty file, only keys two kinds share, or keys of two kinds
+mixed), the folder decides if it names one of the candidates (``sim``, ``vehicles``,
+``links``).
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from typing import Any
 
 from edge_vis.bandwidth.linkspec import SPEC_KEYS
 from edge_vis.config.deployment import RelayProfile
-from edge_vis.config.vehicles import VehicleProfile
+from edge_vis.config.vehicles import VehicleDiscovery, VehicleProfile
 from edge_vis.schema import toml_keys
 
 DEPLOYMENT = "deployment"
@@ -93,4 +95,12 @@ def _marks(kind: str, data: Mapping[str, Any]) -> set[str]:
             found.add("[[vehicles]] with vehicle_id")
         if kind == SIM and all("name" in e and "vehicle_id" not in e for e in entries):
             found.add("[[vehicles]] with name")
+    # [discovery] is a deployment's timing, or how a vehicle is found: its keys tell
+    table = data.get("discovery")
+    if isinstance(table, Mapping) and table:
+        vehicle_keys = toml_keys(VehicleDiscovery)
+        if kind == VEHICLE and all(key in vehicle_keys for key in table):
+            found.add("[discovery] with hello or passive")
+        if kind == DEPLOYMENT and not any(key in vehicle_keys for key in table):
+            found.add("[discovery] with period")
     return found

@@ -256,6 +256,7 @@ def _check_vehicles(reader: Reader, profile: RelayProfile) -> None:
     """
     ids: set[str] = set()
     subsystems: dict[int, str] = {}
+    families: dict[str, str] = {}
     link_names = {link.name for link in profile.links}
     for i, vehicle in enumerate(profile.vehicles):
         key = f"vehicles[{i}]"
@@ -265,9 +266,17 @@ def _check_vehicles(reader: Reader, profile: RelayProfile) -> None:
         def where(name: str, key: str = key, inline: bool = inline) -> str:
             return f"{key}.{name}" if inline else name
 
-        if vehicle.vehicle_id in ids:
+        if vehicle.vehicle_id and vehicle.vehicle_id in ids:
             reader.problem(f"{key}.vehicle_id", f"duplicate vehicle_id {vehicle.vehicle_id!r}")
         ids.add(vehicle.vehicle_id)
+        if vehicle.is_family and vehicle.discovery is not None:
+            for claim in ((vehicle.discovery.hello,) if vehicle.discovery.hello
+                          else vehicle.discovery.messages):
+                other_key = families.get(claim)
+                if other_key is not None:
+                    reader.problem(f"{key}.discovery", f"{claim} already declares the "
+                                                       f"vehicles of {other_key}")
+                families[claim] = key
         if vehicle.subsystem is not None:
             other = subsystems.get(vehicle.subsystem)
             if other is not None:

@@ -16,6 +16,22 @@ own (``profiles/vehicles/*.toml``) that a deployment references with ``file =``:
     [report_rates]
     ReportGlobalPose = 1.0
 
+A vehicle that does not answer JAUS Discovery may be found from what it sends instead,
+declared in a ``[discovery]`` table (:class:`VehicleDiscovery`): a *hello* message of the
+user's JSIDL whose fields give the vehicle's JAUS ID, id, name, type and services, or
+*passive* discovery, where the first message from the subsystem declares the vehicle. A
+profile with a ``[discovery]`` table and no ``subsystem`` describes a family: every vehicle
+that sends the hello (or, passive, one of ``messages``) is declared, its ``vehicle_id``
+from the hello (``vehicle_id_field``) or its name and subsystem::
+
+    vehicle_type = "AUV"
+    [discovery]
+    hello = "VendorHello"
+    address_field = "jaus_id"          # S.N.C of the vehicle (default: the sender)
+    name_field = "vehicle_name"
+    type_field = "vehicle_type"        # an enumeration: its label is the type
+    services_field = "services"        # a list of {uri, major_version, minor_version}
+
 :func:`read_vehicle` builds a :class:`VehicleProfile` from such a table with the
 validation kit (:mod:`edge_vis.schema`); what needs the deployment (link names, duplicate
 ids) is checked by the deployment loader.
@@ -34,10 +50,6 @@ from edge_vis.schema import Reader, setting
 
 def _urn(uri: str) -> str | None:
     return None if uri.startswith("urn:") else f"service URI {uri!r} does not start with 'urn:'"
-
-
-def _non_empty(text: str) -> str | None:
-    return None if text else "must not be empty"
 
 
 @dataclass(frozen=True, slots=True)
@@ -59,6 +71,58 @@ class ComponentProfile:
     services: tuple[ServiceProfile, ...] = ()
 
 
+def _hello_field(path: str) -> str | None:
+    return None if all(path.split(".")) else f"{path!r}: a dotted field path of the hello"
+
+
+@dataclass(frozen=True, slots=True)
+class VehicleDiscovery:
+    """How a vehicle that does not answer JAUS Discovery is found.
+
+    ``hello``: the message (of the catalogue, the profile's JSIDL included) that announces
+    a vehicle; the ``*_field`` keys are paths of its fields. ``passive``: the first message
+    from the subsystem (or any of ``messages`` from any subsystem) declares the vehicle,
+    its services those that the catalogue says declare the messages it sends, plus
+    ``services``. Such a vehicle is alive while it sends anything: without a Liveness or
+    Management service it is never asked for a sign of life, and is lost after
+    ``silence_timeout`` seconds of silence (0: the deployment's).
+    """
+
+    hello: str = ""
+    passive: bool = False
+    messages: tuple[str, ...] = ()
+    address_field: str = setting("", check=_hello_field)
+    vehicle_id_field: str = setting("", check=_hello_field)
+    name_field: str = setting("", check=_hello_field)
+    type_field: str = setting("", check=_hello_field)
+    services_field: str = setting("", check=_hello_field)
+    #: in each element of ``services_field``: the URI and version fields (an element that
+    #: is a string is the URI itself)
+    service_uri: str = "uri"
+    service_major: str = "major_version"
+    service_minor: str = "minor_version"
+    services: tuple[ServiceProfile, ...] = ()
+    silence_timeout: float = setting(0.0, ge=0, unit="s")
+
+    def validate(self) -> Iterator[tuple[str, str]]:
+        """Exactly one way to be found; hello keys only with a hello."""
+        if bool(self.hello) == self.passive:
+            yield "hello", "give either hello = \"MESSAGE\" or passive = true"
+        if self.passive:
+            for key in ("address_field", "vehicle_id_field", "name_field", "type_field",
+                        "services_field"):
+                if getattr(self, key):
+                    yield key, "only a hello has fields to read (passive = true)"
+        if self.hello and self.messages:
+            yield "messages", "only passive discovery takes messages"
+
+    def hello_fields(self) -> dict[str, str]:
+        """The hello's field paths by key (those given)."""
+        return {key: getattr(self, key) for key in (
+            "address_field", "vehicle_id_field", "name_field", "type_field",
+            "services_field") if getattr(self, key)}
+
+
 @dataclass(frozen=True, slots=True)
 class VehicleProfile:
     """What is known about a vehicle in advance.
@@ -67,15 +131,18 @@ class VehicleProfile:
     ``components`` the vehicle is *static*: it is declared at start-up with those
     services, and standard discovery (identification, services) is not needed for it.
     ``report_rates`` (Hz, by report message name) override the deployment's rates.
+    ``discovery`` says how a vehicle without JAUS Discovery is found; with it and no
+    ``subsystem`` the profile is a family and ``vehicle_id`` comes from each vehicle.
     """
 
-    vehicle_id: str = setting(check=_non_empty, doc="every vehicle needs a vehicle_id")
+    vehicle_id: str = ""
     subsystem: int | None = setting(None, ge=1, le=65534)
     name: str = ""
     vehicle_type: str = ""
     link: str = ""
     components: tuple[ComponentProfile, ...] = ()
     report_rates: Mapping[str, float] = setting(factory=dict, custom=True)
+    discovery: VehicleDiscovery | None = None
     source: str = setting("", toml=False)
     #: minimum useful rate (Hz) and planning priority (higher = kept longer) by report
     report_minimums: Mapping[str, float] = setting(factory=dict, key="report_rates",
@@ -88,8 +155,23 @@ class VehicleProfile:
         """True when the profile lists the vehicle's components and services."""
         return bool(self.components)
 
+    @property
+    def is_family(self) -> bool:
+        """True for a discovery profile that any number of subsystems may match."""
+        return self.discovery is not None and self.subsystem is None
+
     def validate(self) -> Iterator[tuple[str, str]]:
-        """Every component must belong to the vehicle's subsystem."""
+        """A vehicle_id (unless a family's); components in the vehicle's subsystem."""
+        if not self.vehicle_id and not (self.discovery is not None and not self.subsystem
+                                        and not self.components):
+            yield "vehicle_id", "missing (every vehicle needs a vehicle_id; only a " \
+                                "[discovery] profile without a subsystem may leave it out)"
+        if self.discovery is not None and self.discovery.passive and self.subsystem is None \
+                and not self.discovery.messages:
+            yield "discovery.passive", "passive discovery needs a subsystem, or the " \
+                                       "messages that declare a vehicle (messages = [...])"
+        if self.discovery is not None and self.components:
+            yield "discovery", "a static vehicle (components) is not discovered"
         for i, component in enumerate(self.components):
             if self.subsystem is not None and component.address.subsystem != self.subsystem:
                 yield (f"components[{i}].address", f"subsystem {component.address.subsystem} "

@@ -16,7 +16,8 @@ publish) and re-arms its timer at :meth:`Engine.next_deadline`::
     shutdown(now) ... on_timer(now) ... until ShutdownComplete is drained
 
 Per vehicle (one JAUS subsystem) the engine keeps, once for all translators: the
-component/service tree (:mod:`~edge_vis.engine.finder`), liveness and the silence timer
+component/service tree (:mod:`~edge_vis.engine.finder`; vehicles found by a hello or their
+messages: :mod:`~edge_vis.engine.announcements`), liveness and the silence timer
 (:mod:`~edge_vis.engine.liveness`), JAUS access control and readiness of the commanded
 components (:mod:`~edge_vis.engine.access`), who else holds them (:mod:`~edge_vis.engine.holders`),
 the vehicles' clocks (:mod:`~edge_vis.engine.clocks`), event subscriptions with polling fallback
@@ -47,6 +48,7 @@ from typing import Any
 from edge_vis.bandwidth.demands import FleetPlanner
 from edge_vis.config import RelayProfile
 from edge_vis.engine.access import Access
+from edge_vis.engine.announcements import Announcements
 from edge_vis.engine.clocks import Clocks
 from edge_vis.engine.commands import Commands
 from edge_vis.engine.control_requests import ControlRequests
@@ -110,6 +112,7 @@ class Engine:
         self._reports = Reports(state, self.manager, self._rates, self._handle)
         self._liveness = Liveness(state, self._changed, self._access, self._reports)
         self._finder = Finder(state, self._changed, self._liveness)
+        self._announcements = Announcements(state, self._finder, self._changed)
         self._commands = Commands(state, self._changed)
         self._control_requests = ControlRequests(state, self._access, self._changed)
         self._estop = EmergencyStops(state, self._changed)
@@ -211,6 +214,9 @@ class Engine:
             vehicle = self._finder.on_identification(source, fields, now)
         else:
             vehicle = state.vehicles.get(source.subsystem)
+            if vehicle is None or vehicle.announced_by is not None:
+                # a hello or passive discovery profile may declare (or update) it
+                vehicle = self._announcements.on_message(source, name, fields, vehicle, now)
         if vehicle is None:
             # a custom hello: a translator may declare the vehicle from it
             if self.manager.handles(name):

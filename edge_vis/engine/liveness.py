@@ -2,7 +2,8 @@
 
 Any message from a vehicle counts as a sign of life. Each liveness period the relay asks
 what keeps it hearing from a quiet vehicle (QueryHeartbeatPulse where Liveness is offered,
-QueryStatus where Management is, QueryIdentification otherwise); a vehicle silent for the
+QueryStatus where Management is, QueryIdentification otherwise, except of a vehicle found by
+its hello or its messages: :mod:`~edge_vis.engine.announcements`); a vehicle silent for the
 silence timeout is *lost*: its events, control and queued commands are dropped and
 translators are told it is offline. The next message makes it *found*: control is asked
 for again and its report subscriptions are set up again (:meth:`Liveness.setup`, also run
@@ -103,5 +104,7 @@ class Liveness:
                 elif vehicle.offers(address, MANAGEMENT):
                     state.send(address, "QueryStatus", {})
                     sent = True
-        if not sent and vehicle.address is not None:
+        if not sent and vehicle.address is not None and vehicle.announced_by is None:
+            # a vehicle found by its hello or its messages need not answer this: anything
+            # it sends is its sign of life
             state.send(vehicle.address, "QueryIdentification", {"query_type": 2})

@@ -102,7 +102,17 @@ class Rates:
         defaults = {spec.report: spec.rate for _tr, spec in self._manager.wanted_reports()}
         for vehicle in state.vehicles.values():
             vp = profile.vehicle_by_subsystem(vehicle.subsystem)
-            if vp is not None and vp.vehicle_id != vehicle.vehicle_id:
+            if vp is None and vehicle.announced_by is not None:
+                # found by a family's discovery profile: follow that profile's new version
+                was = vehicle.announced_by.discovery
+                vp = next((p for p in profile.vehicles if p.is_family and p.discovery
+                           is not None and was is not None
+                           and (p.discovery.hello, p.discovery.messages)
+                           == (was.hello, was.messages)), None)
+                vehicle.announced_by = vp
+            elif vehicle.announced_by is not None:
+                vehicle.announced_by = vp if vp is not None and vp.discovery else None
+            if vp is not None and vp.vehicle_id and vp.vehicle_id != vehicle.vehicle_id:
                 not_applied.append(f"vehicle {vehicle.vehicle_id}: the profile now calls "
                                    f"subsystem {vehicle.subsystem} {vp.vehicle_id!r}")
             else:

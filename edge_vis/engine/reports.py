@@ -15,7 +15,7 @@ import logging
 from collections.abc import Mapping
 from typing import Any
 
-from edge_vis.engine.discovery import pick
+from edge_vis.engine.discovery import CORE, pick
 from edge_vis.engine.manager import TranslationManager
 from edge_vis.engine.rates import MAX_RATE, Rates
 from edge_vis.engine.state import EngineState, Handle
@@ -24,6 +24,8 @@ from edge_vis.engine.vehicle import Vehicle
 from edge_vis.jaus.address import JausAddress
 
 log = logging.getLogger(__name__)
+
+EVENTS = CORE + "Events"
 
 
 class Reports:
@@ -59,7 +61,10 @@ class Reports:
         for sub in starting:
             if sub.state is SubscriptionState.NEW \
                     and (vehicle.vehicle_id, sub.report) not in state.dropped:
-                state.send_requests(sub.provider, sub.start(now))
+                # a vehicle found by its hello or messages lists its services: one without
+                # Events is polled from the start rather than after unanswered CreateEvents
+                events = vehicle.announced_by is None or vehicle.offers(sub.provider, EVENTS)
+                state.send_requests(sub.provider, sub.start(now, events))
 
     def poll(self, vehicle: Vehicle, now: float) -> None:
         """Refreshes, retries and polls that are due."""

@@ -155,10 +155,11 @@ class Subscription:
 
     # -- inputs ------------------------------------------------------------------------
 
-    def start(self, now: float) -> list[Request]:
-        """Begin (or, after a loss, begin again)."""
+    def start(self, now: float, events: bool = True) -> list[Request]:
+        """Begin (or, after a loss, begin again); poll at once when the provider is known
+        to offer no Events service (``events=False``)."""
         self.attempts = 0
-        return self._create(now)
+        return self._create(now) if events else self._start_polling(now)
 
     def on_confirm(self, event_id: int, rate: float, now: float) -> list[Request]:
         """ConfirmEventRequest for our current request ID."""

@@ -115,7 +115,8 @@ class TimerPass:
         stopping = state.shutting_down
         if not stopping:
             if (vehicle.online and vehicle.last_seen is not None
-                    and now > vehicle.last_seen + state.profile.discovery.silence_timeout):
+                    and now > vehicle.last_seen + vehicle.silence_timeout(
+                        state.profile.discovery.silence_timeout)):
                 self._liveness.lose(vehicle, now)
             if vehicle.next_services_query is not None and now >= vehicle.next_services_query:
                 self._finder.query_services(vehicle, now)
@@ -144,7 +145,7 @@ class TimerPass:
                     times.append(v.next_holder_query)
                     times.append(v.next_time_query)
                 if v.online and v.last_seen is not None:
-                    times.append(v.last_seen + silence + 1e-6)
+                    times.append(v.last_seen + v.silence_timeout(silence) + 1e-6)
                 for key, slot in v.commands.items():
                     times.append(slot.next_deadline(can_send(v, key)))
             if v.estop is not None and v.online:

@@ -70,11 +70,19 @@ class Vehicle:
     #: components the relay holds control of for an errand of its own (SetTime)
     errands: set[JausAddress] = field(default_factory=set)
     set_time_sent: int = 0
+    #: the discovery profile that declared it from its hello or first message, if any
+    announced_by: VehicleProfile | None = None
     #: the emergency stop set through the relay, until cleared (:mod:`edge_vis.engine.estop`)
     estop: Estop | None = None
 
     def __post_init__(self) -> None:
         self.discovery.label = self.vehicle_id
+
+    def silence_timeout(self, default: float) -> float:
+        """Seconds of silence before it is lost: its discovery profile's, or ``default``."""
+        found = self.announced_by.discovery if self.announced_by is not None else None
+        return found.silence_timeout if found is not None and found.silence_timeout \
+            else default
 
     def next_request_id(self) -> int:
         """A fresh CreateEvent/CancelEvent request ID (u8, wraps)."""

@@ -12,7 +12,7 @@ A translator plugin imports from here and from nothing else of edge-vis::
   own :class:`SendMessage` and :class:`ShutdownComplete` live beside them);
 * the rule vocabulary (:mod:`edge_vis.kit.rules`): report and command tables that
   :class:`RuleTranslator` runs and ``edge-vis mappings`` prints, and :func:`path_problem`
-  to check a field path against a message definition;
+  and :func:`resolve_path` to check a field path against a message definition;
 * :func:`setting` and :func:`read_table`, from the validation kit (:mod:`edge_vis.schema`),
   to declare a translator's options as a dataclass (:attr:`Translator.options_type`).
 
@@ -68,6 +68,7 @@ from edge_vis.kit.rules import (
     number,
     path_problem,
     put,
+    resolve_path,
     set_path,
 )
 from edge_vis.schema import read_table, setting
@@ -80,5 +81,5 @@ __all__ = [
     "Spec", "TopicDecl", "Translator", "TranslatorContext", "VehicleView", "clamp", "code_of",
     "declarations", "derive_vehicle_id", "describe_rules", "extract", "flags", "get_path",
     "image_chunks", "label", "number", "path_problem", "publish_image", "put", "read_table",
-    "set_path", "setting",
+    "resolve_path", "set_path", "setting",
 ]

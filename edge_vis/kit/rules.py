@@ -206,19 +206,43 @@ def get_path(fields: Any, path: str, default: Any = None) -> Any:
 
 def path_problem(body: Record, path: str) -> str:
     """Why :func:`get_path` can find nothing at ``path`` in a message whose body is
-    ``body`` (its definition); "" when the path exists.
+    ``body`` (its definition); "" when the path exists (see :func:`resolve_path`)."""
+    return resolve_path(body, path)[1]
 
-    Paths start at the body's fields: a body that is one record is flattened when decoded,
-    so ``"pack_rec.pack_id"`` is refused with the path to write instead (``"pack_id"``).
+
+def resolve_path(body: Record, path: str) -> tuple[str, str]:
+    """``(the path as decoded fields hold it, why there is nothing there or "")``.
+
+    Paths start at the body's fields. A body that is one record is flattened when
+    decoded, so a path qualified by that record's name (``"pack_rec.pack_id"``, as the
+    JSIDL nests it) is read as the path into the flattened fields (``"pack_id"``): both
+    forms name the same field.
     """
     steps = path.split(".")
     problem = _path_problem(body, steps, [])
-    if problem and len(steps) > 1 and not any(f.name == steps[0] for f in body.fields) \
-            and not _path_problem(body, steps[1:], []):
-        rest = ".".join(steps[1:])
-        return (f"no field {steps[0]!r} at the top of the message: a body of one record is "
-                f"flattened, so paths start at its fields; write {rest!r}")
-    return problem
+    if problem and len(steps) > 1 and steps[0] and \
+            not any(f.name == steps[0] for f in body.fields) and \
+            not _path_problem(body, steps[1:], []):
+        return ".".join(steps[1:]), ""
+    return path, problem
+
+
+def type_at(body: Record, path: str) -> Any:
+    """The field type at ``path`` (resolved as :func:`resolve_path` does), or None."""
+    resolved, problem = resolve_path(body, path)
+    if problem:
+        return None
+    node: Any = body
+    for step in resolved.split("."):
+        if isinstance(node, Record):
+            node = next(f.type for f in node.fields if f.name == step)
+        elif isinstance(node, Variant):
+            if step == "*":
+                return None
+            node = next(a.type for a in node.alternatives if a.name == step)
+        else:
+            return None  # a sub-field of a bit field: an integer
+    return node
 
 
 def _path_problem(node: Any, steps: list[str], done: list[str]) -> str:

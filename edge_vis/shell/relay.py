@@ -31,6 +31,7 @@ from edge_vis.bandwidth.demands import FleetPlanner
 from edge_vis.bandwidth.linkspec import DEFAULT_PRIORITIES, LinkSpec
 from edge_vis.catalogue import Catalogue
 from edge_vis.config import BulkProfile, LinkProfile, RelayProfile
+from edge_vis.engine.announcements import verify_discovery
 from edge_vis.engine.engine import Engine
 from edge_vis.errors import CodecError, EdgeVisError, EncodeError
 from edge_vis.jaus.address import JausAddress
@@ -113,6 +114,7 @@ class Runtime:
         self.engine.link_of = self._link_of
         # what the translators' options name must exist (edge-vis check does the same)
         self.engine.manager.verify(self.catalogue, self.profile.source)
+        verify_discovery(self.profile.vehicles, self.catalogue, self.profile.source)
         if self._publisher_factory == "dds":
             self.publisher = self._open_dds()
         elif callable(self._publisher_factory):

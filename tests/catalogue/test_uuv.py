@@ -1,8 +1,8 @@
-"""The ``uuv`` message set proves a custom set is a drop-in: entry point in, decoded out.
+"""The ``uuv`` message set is JSIDL shipped in the package, no Python: JSIDL in, decoded out.
 
-It is installed only through the ``edge_vis.messages`` entry point in ``pyproject.toml``;
-here it must appear in ``default_catalogue()``, claim no code any public JSIDL uses,
-round-trip, lay its bytes out as documented, and decode through ``edge-vis decode``.
+It is read from ``edge_vis/data/jsidl/uuv/`` into ``default_catalogue()``; it must claim no
+code any public JSIDL uses, round-trip, lay its bytes out as its JSIDL says, and decode
+through ``edge-vis decode``.
 """
 
 from __future__ import annotations
@@ -17,7 +17,8 @@ from typing import Any
 import pytest
 
 from edge_vis import plugins
-from edge_vis.catalogue import default_catalogue
+from edge_vis.catalogue import default_catalogue, shipped_jsidl_sets
+from edge_vis.catalogue.jsidl import load_jsidl
 from edge_vis.cli import main
 from edge_vis.codec.types import MessageDef
 from edge_vis.jaus.address import JausAddress
@@ -64,16 +65,18 @@ OCEAN = {
 
 
 def uuv_defs() -> tuple[MessageDef, ...]:
-    return plugins.load(plugins.MESSAGES, "uuv")
+    return tuple(load_jsidl(shipped_jsidl_sets()["uuv"], service_set="uuv"))
 
 
-def test_installed_through_the_entry_point_only() -> None:
-    (entry,) = [e for e in plugins.entries(plugins.MESSAGES) if e.name == "uuv"]
-    assert entry.target == "translators.uuv_messages:MESSAGES"
+def test_shipped_as_jsidl_in_the_package_only() -> None:
+    folder = shipped_jsidl_sets()["uuv"]
+    assert folder.parent.parent.name == "data" and folder.parent.parent.parent.name == \
+        "edge_vis"
+    assert not [e for e in plugins.entries(plugins.MESSAGES) if e.name == "uuv"]
     catalogue = default_catalogue()
     for defn in uuv_defs():
         assert catalogue.get(defn.code) == defn
-        assert catalogue.source(defn.code).startswith("plugin uuv")
+        assert catalogue.source(defn.code) == "shipped JSIDL uuv"
         assert defn.service_set == "uuv"
         assert all(uri.startswith("urn:edge-vis:uuv:") and version == "1.0"
                    for uri, version in defn.services)
@@ -136,8 +139,9 @@ def test_wire_layout_of_atr_notice() -> None:
     payload = default_catalogue().encode("ReportAtrImageAvailable", ATR)
     assert payload[:3] == b"\xa2\xf0\x03"  # code, presence vector: latitude and longitude
     assert struct.unpack_from("<IQB", payload, 3) == (77, 5_000_000_000, 4)
-    assert payload[16:48] == hashlib.sha256(IMAGE).digest()
-    assert struct.unpack_from("<Q", payload, 48) == (1_795_000_000_123,)
+    assert payload[16] == 32  # the SHA-256 is a variable_length_field: count, then digest
+    assert payload[17:49] == hashlib.sha256(IMAGE).digest()
+    assert struct.unpack_from("<Q", payload, 49) == (1_795_000_000_123,)
 
 
 def test_scaled_fields_keep_a_useful_resolution() -> None:

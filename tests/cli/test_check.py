@@ -150,6 +150,15 @@ fields = { turbidity = "turbidity", ph = "ph", station = "station" }
     assert out.startswith("OK ") and ": deployment profile: " in out
 
 
+def test_record_qualified_and_flattened_paths_both_pass(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    status, out = mapping_check(tmp_path, capsys, """
+message = "ReportWaterQuality"
+fields = { ph = "water_quality_rec.ph", turbidity = "turbidity" }
+""")
+    assert status == 0, out
+
+
 @pytest.mark.parametrize(("body", "key", "reason"), [
     ('message = "ReportWaterQualityX"', "message",
      "no message 'ReportWaterQualityX' in the catalogue; did you mean 'ReportWaterQuality'?"),
@@ -163,9 +172,13 @@ fields = { turbidity = "turbidity", ph = "ph", station = "station" }
      "(fields: turbidity, ph, station)"),
     ('message = "ReportWaterQuality"\nfields = { t = "turbidity.raw" }', "fields.t",
      "'turbidity.raw' of ReportWaterQuality: turbidity is a single value"),
-    ('message = "ReportWaterQuality"\nfields = { ph = "water_quality_rec.ph" }', "fields.ph",
-     "no field 'water_quality_rec' at the top of the message: a body of one record is "
-     "flattened, so paths start at its fields; write 'ph'"),
+    ('message = "ReportWaterQuality"\nfields = { ph = "water_quality_rec.nothing" }',
+     "fields.ph", "no field 'water_quality_rec' in the message (fields: turbidity, ph, "
+     "station)"),
+    ('message = "ReportWaterQuality"\nquery = "QueryWaterQuality"\nservice = '
+     '"urn:example:WaterQuality"\nquery_fields = { presence_vector = 3 }',
+     "query_fields.presence_vector",
+     "no field 'presence_vector' in QueryWaterQuality (fields: none)"),
 ])
 def test_a_mapping_to_what_does_not_exist_is_named(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], body: str, key: str,

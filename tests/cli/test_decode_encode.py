@@ -125,3 +125,31 @@ def test_encode_reports_bad_input(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["encode", "ReportGlobalPose", "--json", '{"latitude": 91}',
                  "--source", "1.1.1", "--destination", "2.1.1"]) == 2
     assert "latitude" in capsys.readouterr().err
+
+
+BATTERY = (Path(__file__).resolve().parents[2] / "profiles" / "examples" / "battery"
+           / "BatteryPack.xml")
+
+
+def test_encode_a_custom_message_with_its_jsidl(capsys: pytest.CaptureFixture[str]) -> None:
+    fields = {"voltage": 48.2, "current": -12.5, "state_of_charge": 81.0, "pack_state": 2}
+    assert main(["encode", "ReportBatteryPack", "--jsidl", str(BATTERY), "--json",
+                 json.dumps(fields), "--source", "77.1.3", "--destination", "200.1.1"]) == 0
+    (datagram,) = capsys.readouterr().out.split()
+    # the bytes the JSIDL lays out: code, presence vector (pack_state), then the fields
+    assert "c1f002" in datagram
+    code, (obj,) = run_cli(capsys, "decode", datagram, "--jsidl", str(BATTERY))
+    assert code == 0 and obj["message"] == "ReportBatteryPack"
+    assert obj["source"] == "77.1.3" and obj["fields"]["pack_state"] == 2
+    assert obj["fields"]["voltage"] == pytest.approx(48.2, abs=0.01)
+    assert obj["fields"]["current"] == pytest.approx(-12.5, abs=0.01)
+
+
+def test_encode_a_custom_message_without_its_jsidl_says_so(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["encode", "ReportBatteryPack", "--source", "77.1.3",
+                 "--destination", "200.1.1"]) == 2
+    assert "a message of your own needs --jsidl FILE" in capsys.readouterr().err
+    assert main(["encode", "ReportBatteryPack", "--jsidl", "nowhere.xml", "--source",
+                 "77.1.3", "--destination", "200.1.1"]) == 2
+    assert "nowhere.xml: no such JSIDL file or directory" in capsys.readouterr().err

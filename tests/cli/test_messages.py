@@ -94,7 +94,7 @@ def test_filter_by_set(capsys: pytest.CaptureFixture[str]) -> None:
     assert report["total"] == report["sets"]["uuv"]["count"] + report["sets"]["core"]["count"]
     uuv = [m for m in report["messages"] if m["service_set"] == "uuv"]
     assert {m["code_hex"] for m in uuv} == {"0xF0A0", "0xE0A1", "0xF0A1", "0xF0A2"}
-    assert all(m["from"].startswith("plugin uuv") for m in uuv)
+    assert all(m["from"] == "shipped JSIDL uuv" for m in uuv)
 
 
 def test_unknown_set_is_a_clear_error(capsys: pytest.CaptureFixture[str]) -> None:

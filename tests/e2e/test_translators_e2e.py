@@ -318,7 +318,10 @@ def test_uuv_hello_ocean_data_and_atr_notice(domain_id: int, partition: str) -> 
         assert product["sha256"] == sha.hex() and product["size_bytes"] == 1_048_576
         assert product["targets"][0]["target_class"] == "cylinder"
 
-    asyncio.run(relay_with(peer, 51, domain_id, partition, body))
+    # found by its hello as the shipped discovery profile says, no Python
+    uuv = Path(__file__).resolve().parents[2] / "profiles" / "vehicles" / "uuv.toml"
+    asyncio.run(relay_with(peer, 51, domain_id, partition, body,
+                           extra={"vehicles": [{"file": str(uuv)}]}))
 
 
 # ------------------------------------------------------------------------------ mobility

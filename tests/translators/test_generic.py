@@ -247,19 +247,30 @@ def test_field_paths_are_checked_against_the_definition(message: str, path: str,
     assert found.startswith(problem) if problem else found == ""
 
 
-def test_a_record_qualified_path_is_refused_with_the_path_to_write(
-        catalogue: Catalogue) -> None:
+@pytest.mark.parametrize("path", ["ph", "water_quality_rec.ph"])
+def test_flattened_and_record_qualified_paths_publish_the_same_value(
+        catalogue: Catalogue, path: str) -> None:
+    """The body of ReportWaterQuality is one record, flattened when decoded: the JSIDL's
+    nesting (``water_quality_rec.ph``) and the flattened path (``ph``) both publish."""
     tr = GenericTranslator()
-    tr.configure({"mappings": [{**MAPPING, "fields": {"ph": "water_quality_rec.ph"}}]}, "p.toml")
-    with pytest.raises(ConfigError) as info:
-        tr.verify(catalogue, "p.toml")
-    ((file, key, reason),) = info.value.problems
-    assert (file, key) == ("p.toml", "translators.generic.mappings[0].fields.ph")
-    assert reason.endswith("paths start at its fields; write 'ph'")
-    # and the flattened path is the one that publishes the value
-    tr.configure({"mappings": [MAPPING]}, "p.toml")
+    tr.configure({"mappings": [{**MAPPING, "fields": {"ph": path}}]}, "p.toml")
     tr.verify(catalogue, "p.toml")
     message = catalogue.decode(catalogue.encode("ReportWaterQuality", {"turbidity": 1.0,
                                                                        "ph": 7.0}))
-    assert get_path(message.fields, "ph") == pytest.approx(7.0, abs=0.1)
-    assert get_path(message.fields, "water_quality_rec.ph") is None
+    (action,) = tr.on_message(message.name, message.fields, CTX)
+    assert action.sample["ph"] == pytest.approx(7.0, abs=0.1)
+    (row,) = tr.describe()[0]["fields"]
+    assert (row["dds"], row["jaus"]) == ("ph", "ph")
+
+
+def test_a_wrong_record_name_alone_is_not_taken_for_a_qualifier(catalogue: Catalogue) -> None:
+    """Only a first step that is no field and leads on to a real path is a qualifier."""
+    for path, problem in (("water_quality_rec.nothing", "no field 'water_quality_rec'"),
+                          ("turbidity.deeper", "turbidity is a single value")):
+        tr = GenericTranslator()
+        tr.configure({"mappings": [{**MAPPING, "fields": {"x": path}}]}, "p.toml")
+        with pytest.raises(ConfigError) as info:
+            tr.verify(catalogue, "p.toml")
+        ((file, key, reason),) = info.value.problems
+        assert (file, key) == ("p.toml", "translators.generic.mappings[0].fields.x")
+        assert problem in reason, reason

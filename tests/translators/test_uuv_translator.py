@@ -1,4 +1,5 @@
-"""The custom uuv translator: vendor hello discovery, ocean data, ATR image announcements."""
+"""The shipped uuv support: discovery by its VendorHello from a TOML profile (no Python),
+and the uuv translator's ocean data and ATR image announcements."""
 
 from __future__ import annotations
 
@@ -12,7 +13,6 @@ from rulekit import CAT, CTX, TYPES, Relay, check_report_rule
 from edge_vis.config import from_mapping, load_profile
 from edge_vis.dds.convert import converter_for
 from edge_vis.jaus.address import JausAddress
-from edge_vis.kit.actions import DeclareVehicle
 from translators.uuv import UuvTranslator
 
 TR = UuvTranslator
@@ -38,23 +38,35 @@ def decoded(name: str, fields: dict) -> dict:  # type: ignore[type-arg]
     return CAT.decode(CAT.encode(name, fields)).fields or {}
 
 
-def test_hello_declares_the_vehicle() -> None:
-    from dataclasses import replace
+UUV_PROFILE = Path(__file__).resolve().parents[2] / "profiles" / "vehicles" / "uuv.toml"
 
-    (action,) = TR().on_message("VendorHello", decoded("VendorHello", HELLO),
-                                replace(CTX, vehicle=None))
-    assert isinstance(action, DeclareVehicle)
-    assert action.vehicle_id == "Nemo-60" and action.name == "Nemo"
-    assert action.vehicle_type == "AUV"
-    assert dict(action.components) == {JausAddress(60, 1, 5): (
-        OCEAN, ("urn:edge-vis:uuv:AtrImageNotifier", "1.0"))}
+
+def family(**extra: object):  # type: ignore[no-untyped-def]
+    """A relay profile taking the shipped UUV discovery profile."""
+    return profile(vehicles=[{"file": str(UUV_PROFILE)}], **extra)
+
+
+def test_hello_declares_the_vehicle_from_the_shipped_profile() -> None:
+    relay = Relay(family(), [TR()])
+    relay.advance(0.1)
+    relay.deliver("60.1.5", "VendorHello", HELLO)
+    vehicle = relay.engine.vehicle("Nemo-60")
+    assert vehicle is not None and vehicle.online
+    assert (vehicle.name, vehicle.vehicle_type) == ("Nemo", "AUV")
+    assert list(vehicle.components) == [JausAddress(60, 1, 5)]
+    assert {OCEAN, ("urn:edge-vis:uuv:AtrImageNotifier", "1.0")} <= set(
+        vehicle.components[JausAddress(60, 1, 5)])
+    assert relay.engine.counters["hellos_accepted"] == 1
 
 
 @pytest.mark.parametrize("jaus_id", [{"subsystem": 65535, "node": 255, "component": 255},
                                      {"subsystem": 60, "node": 0, "component": 1}])
 def test_hello_with_unusable_address_declares_nothing(jaus_id: dict) -> None:  # type: ignore[type-arg]
-    fields = decoded("VendorHello", {**HELLO, "jaus_id": jaus_id})
-    assert TR().on_message("VendorHello", fields, CTX) == []
+    relay = Relay(family(), [TR()])
+    relay.advance(0.1)
+    relay.deliver("60.1.5", "VendorHello", {**HELLO, "jaus_id": jaus_id})
+    assert relay.engine.vehicles == {}
+    assert relay.engine.counters["hellos_refused"] == 1
 
 
 def test_ocean_environment_edges() -> None:
@@ -98,10 +110,11 @@ def profile(**extra: object):  # type: ignore[no-untyped-def]
 
 
 def test_engine_discovers_by_hello_and_subscribes_without_identification() -> None:
-    relay = Relay(profile(), [TR()])
+    relay = Relay(family(), [TR()])
     relay.advance(0.1)
     relay.actions.clear()
-    relay.deliver("60.1.5", "VendorHello", HELLO)
+    events = {"uri": "urn:jaus:jss:core:Events", "major_version": 1, "minor_version": 1}
+    relay.deliver("60.1.5", "VendorHello", {**HELLO, "services": [*HELLO["services"], events]})
     relay.advance(0.5)
     creates = relay.sent("CreateEvent")
     assert creates and creates[0].destination == JausAddress(60, 1, 5)
@@ -112,6 +125,16 @@ def test_engine_discovers_by_hello_and_subscribes_without_identification() -> No
     (sample,) = relay.published("EnvironmentalData")
     assert sample["vehicle_id"] == "Nemo-60"
     assert sample["water_temperature"] == pytest.approx(12.5, abs=1e-3)
+
+
+def test_a_hello_without_events_is_polled_at_once() -> None:
+    relay = Relay(family(), [TR()])
+    relay.advance(0.1)
+    relay.actions.clear()
+    relay.deliver("60.1.5", "VendorHello", HELLO)  # no Events service listed
+    assert not relay.sent("CreateEvent")
+    (query,) = relay.sent("QueryOceanEnvironment")
+    assert query.destination == JausAddress(60, 1, 5)
 
 
 def test_static_vehicle_profile_instead_of_discovery() -> None:
@@ -129,6 +152,9 @@ PROFILE = """\
 [relay]
 jaus_id = "42.1.1"
 
+[[vehicles]]
+file = "UUV_PROFILE"
+
 [translators]
 enabled = [
   "core",
@@ -145,11 +171,12 @@ enabled = [
 
 def test_removed_by_deleting_one_profile_line(tmp_path: Path) -> None:
     with_uuv = tmp_path / "with.toml"
-    with_uuv.write_text(PROFILE)
+    text = PROFILE.replace("UUV_PROFILE", str(UUV_PROFILE))
+    with_uuv.write_text(text)
     without = tmp_path / "without.toml"
-    without.write_text("".join(line for line in PROFILE.splitlines(keepends=True)
+    without.write_text("".join(line for line in text.splitlines(keepends=True)
                                if line.strip() != '"uuv",'))
-    assert len(without.read_text().splitlines()) == len(PROFILE.splitlines()) - 1
+    assert len(without.read_text().splitlines()) == len(text.splitlines()) - 1
 
     for path, has_uuv in ((with_uuv, True), (without, False)):
         relay = Relay(load_profile(path))
@@ -158,8 +185,11 @@ def test_removed_by_deleting_one_profile_line(tmp_path: Path) -> None:
         relay.advance(0.1)
         relay.deliver("60.1.5", "VendorHello", HELLO)
         relay.advance(0.5)
-        declared = relay.engine.vehicle("Nemo-60") is not None
-        assert declared is has_uuv
+        # discovery is the profile's: the vehicle is declared either way; its ocean data
+        # is the translator's
+        assert relay.engine.vehicle("Nemo-60") is not None
+        relay.deliver("60.1.5", "ReportOceanEnvironment", {"depth": 12.0})
+        assert bool(relay.published("EnvironmentalData")) is has_uuv
         # every other translator still works: a standard vehicle is found and translated
         relay.deliver("77.1.1", "ReportIdentification",
                       {"query_type": 2, "type": 10001, "identification": "Husky"})
