@@ -3,7 +3,9 @@
 The JAUS machine for one component is :class:`~edge_vis.engine.control.ComponentControl`;
 this module runs those machines for a whole vehicle: it decides which components must be
 controlled (those offering a service some translator commands, while an operator holds
-the vehicle), feeds them ConfirmControl, RejectControl, ReportTimeout and ReportStatus,
+the vehicle, and those of the relay's own errands such as SetTime), with which authority
+(the relay's, or the holding operator's with ``control.authority_from_operator``), feeds
+them ConfirmControl, RejectControl, ReportTimeout and ReportStatus,
 polls their timers, and tells translators when the vehicle's control summary changes.
 ReportStatus is handled here too because management readiness gates control: a vehicle
 in EMERGENCY drops queued motion commands.
