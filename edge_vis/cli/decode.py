@@ -49,8 +49,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="UDP port to select from captures (default 3794)")
     parser.add_argument("--all-ports", action="store_true",
                         help="decode UDP datagrams on every port of a capture")
-    parser.add_argument("--jsidl", nargs="+", default=[], metavar="FILE",
-                        help="extra JSIDL files whose messages should decode too")
+    parser.add_argument("--jsidl", action="extend", nargs=1, default=[], metavar="FILE",
+                        help="a JSIDL file or folder whose messages decode too (repeatable)")
 
 
 class _Output:

@@ -4,7 +4,7 @@
 --source 126.1.199 --destination 42.1.1`` prints one line of hex per datagram (more than
 one when the message exceeds ``--mtu`` and travels as a large data set). Bytes fields take
 hex strings, as ``edge-vis decode`` prints them, so the two commands round-trip.
-``--jsidl FILE...`` adds a user's JSIDL (files or folders), so custom messages encode too:
+``--jsidl FILE`` (repeatable) adds a user's JSIDL (files or folders), so custom messages encode too:
 ``edge-vis encode ReportBatteryPack --jsidl BatteryPack.xml --json '{...}' ...``.
 """
 
@@ -40,8 +40,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ack", action="store_true", help="request an acknowledgement")
     parser.add_argument("--mtu", type=int, default=JTS_MAX_PAYLOAD,
                         help=f"largest payload per packet (default {JTS_MAX_PAYLOAD})")
-    parser.add_argument("--jsidl", nargs="+", default=[], metavar="FILE",
-                        help="JSIDL files or folders whose messages encode too (as a "
+    parser.add_argument("--jsidl", action="extend", nargs=1, default=[], metavar="FILE",
+                        help="a JSIDL file or folder whose messages encode too (repeatable; as a "
                              "profile's catalogue.jsidl)")
 
 

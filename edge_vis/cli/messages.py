@@ -29,9 +29,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--set", dest="sets", action="append", metavar="NAME",
                         help="only this message set (repeatable)")
-    parser.add_argument("--jsidl", nargs="+", metavar="FILE", default=[],
-                        help="also read these JSIDL files or folders and check their messages "
-                             "against the known ones")
+    parser.add_argument("--jsidl", action="extend", nargs=1, metavar="FILE", default=[],
+                        help="also read this JSIDL file or folder (repeatable) and check its "
+                             "messages against the known ones")
 
 
 def _layout(value: Any) -> Any:

@@ -78,6 +78,13 @@ MAX_IN_FLIGHT = 64
 MAX_PRODUCTS = 256
 _RETIRED_KINDS = (TopicKind.PRODUCT, TopicKind.BULK)
 
+
+def _handle(value: int) -> int:
+    """An instance handle as the unsigned 64-bit number it is: the binding gives a sample's
+    ``publication_handle`` unsigned but ``get_matched_publications()`` signed, so about half
+    the writers (top bit set) would never be found matched and be taken for gone."""
+    return value & 0xFFFF_FFFF_FFFF_FFFF
+
 # Domains created with an explicit configuration live as long as the process: deleting a
 # Cyclone domain deletes every participant in it, including other bridges'.
 _DOMAINS: dict[int, Domain] = {}
@@ -355,7 +362,7 @@ class DdsBridge:
         matched: set[int] = set()
         for sub in self._subscriptions:
             try:
-                matched.update(sub.reader.get_matched_publications())
+                matched.update(_handle(h) for h in sub.reader.get_matched_publications())
             except DDSException:
                 return
         gone = {handle: op for handle, op in writers.items() if handle not in matched}
@@ -416,8 +423,8 @@ class DdsBridge:
             data = sub.converter.to_dict(sample)
             if self._on_writer_gone is not None and "operator_id" in data and (
                     len(self._writers_of) < MAX_WATCHED_WRITERS
-                    or info.publication_handle in self._writers_of):
-                self._writers_of[info.publication_handle] = str(data["operator_id"])
+                    or _handle(info.publication_handle) in self._writers_of):
+                self._writers_of[_handle(info.publication_handle)] = str(data["operator_id"])
             out.append((sub.spec.name, data))
         self.counters["received"] += len(out)
         return out

@@ -133,12 +133,13 @@ BATTERY = (Path(__file__).resolve().parents[2] / "profiles" / "examples" / "batt
 
 def test_encode_a_custom_message_with_its_jsidl(capsys: pytest.CaptureFixture[str]) -> None:
     fields = {"voltage": 48.2, "current": -12.5, "state_of_charge": 81.0, "pack_state": 2}
-    assert main(["encode", "ReportBatteryPack", "--jsidl", str(BATTERY), "--json",
+    assert main(["encode", "--jsidl", str(BATTERY), "ReportBatteryPack", "--json",
                  json.dumps(fields), "--source", "77.1.3", "--destination", "200.1.1"]) == 0
     (datagram,) = capsys.readouterr().out.split()
     # the bytes the JSIDL lays out: code, presence vector (pack_state), then the fields
     assert "c1f002" in datagram
-    code, (obj,) = run_cli(capsys, "decode", datagram, "--jsidl", str(BATTERY))
+    # --jsidl takes one file, so the positional argument may come after it
+    code, (obj,) = run_cli(capsys, "decode", "--jsidl", str(BATTERY), datagram)
     assert code == 0 and obj["message"] == "ReportBatteryPack"
     assert obj["source"] == "77.1.3" and obj["fields"]["pack_state"] == 2
     assert obj["fields"]["voltage"] == pytest.approx(48.2, abs=0.01)

@@ -268,3 +268,40 @@ def test_subscribing_to_an_unknown_or_taken_topic_fails_whole(make_bridge: MakeB
     relay.subscribe(["VelocityCommand"])  # the failed call created nothing
     with pytest.raises(ValueError, match="already subscribed: VelocityCommand"):
         relay.subscribe(["ControlRequest", "VelocityCommand"])
+
+
+def test_only_an_operator_whose_writers_are_gone_is_reported_gone(
+        make_bridge: MakeBridge) -> None:
+    """Eight live stations, then one closes: only that one is reported. Each station's
+    writer has its own instance handle; about half of them have the top bit set, which the
+    binding reports with two signs, so a wrong comparison would call live stations gone."""
+    relay = make_bridge()
+    stations = {f"op{i}": make_bridge() for i in range(8)}
+
+    async def scenario() -> tuple[list[str], list[str]]:
+        loop = asyncio.get_running_loop()
+        gone: list[str] = []
+        seen: set[str] = set()
+        relay.watch_writers(gone.append, loop=loop)
+        relay.subscribe(["ControlRequest"], lambda _t, s: seen.add(s["operator_id"]), loop=loop)
+        for name, station in stations.items():
+            station.open_writers(["ControlRequest"])
+            assert station.wait_for_subscribers("ControlRequest")
+            station.publish("ControlRequest", {"vehicle_id": "ugv1", "operator_id": name,
+                                               "action": "REQUEST", "authority": 5})
+        deadline = loop.time() + 3.0
+        while len(seen) < len(stations) and loop.time() < deadline:
+            await asyncio.sleep(0.02)
+        assert seen == set(stations)
+        await asyncio.sleep(0.5)  # several writer checks with every station alive
+        while_alive = list(gone)
+        stations["op3"].close()
+        deadline = loop.time() + 3.0
+        while not gone and loop.time() < deadline:
+            await asyncio.sleep(0.02)
+        await asyncio.sleep(0.3)
+        return while_alive, gone
+
+    while_alive, after_close = asyncio.run(scenario())
+    assert while_alive == []
+    assert after_close == ["op3"]

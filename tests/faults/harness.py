@@ -410,8 +410,12 @@ class Rig:
 
     def vehicle_events(self) -> int:
         """Events the relay holds on the vehicle (the vehicle's own event tables)."""
-        return sum(len([s for s in c.events if s.subscriber == RELAY_ID])
-                   for c in self.sim.components.values() if c.events is not None)
+        return len(self.relay_events_on_vehicle())
+
+    def relay_events_on_vehicle(self) -> list[Any]:
+        """The vehicle's own event records held for the relay (new objects after a reboot)."""
+        return [s for c in self.sim.components.values() if c.events is not None
+                for s in c.events if s.subscriber == RELAY_ID]
 
     def relay_view(self) -> Any:
         assert self.runtime is not None and self.runtime.engine is not None
