@@ -97,6 +97,21 @@ def test_dropouts_and_recoveries_are_counted() -> None:
     assert "OFFLINE" in view.render(1.0)[1]
 
 
+def test_who_holds_each_component_and_the_clock_offset_are_shown() -> None:
+    view = FleetView()
+    view.ingest("ControlStatus", {"vehicle_id": "v", "state": "REJECTED", "holders": [
+        {"component": "60.1.1", "controller": "9.1.5", "authority": 120, "is_relay": False},
+        {"component": "60.1.2", "controller": "200.1.1", "authority": 90, "is_relay": True},
+        {"component": "60.1.3", "controller": "", "authority": 0, "is_relay": False}]}, 0.0)
+    view.ingest("VehicleClock", {"vehicle_id": "v", "offset_ms": -2480.0}, 0.0)
+    text = "\n".join(view.render(1.0))
+    assert "held 60.1.1 by 9.1.5(120) 60.1.2 by relay(90)" in text
+    assert "60.1.3" not in text  # nobody holds it
+    assert "clock -2.48 s" in text
+    view.ingest("VehicleClock", {"vehicle_id": "v", "offset_ms": math.nan}, 2.0)
+    assert "clock" not in "\n".join(view.render(2.0))
+
+
 def test_operator_keys_make_commands() -> None:
     view = FleetView()
     _fleet(view, 0.0)

@@ -6,7 +6,9 @@ Publishes, from the engine's view of each vehicle:
 * ``VehicleStatus`` when it comes online, goes offline, on every ReportStatus and every
   ReportHeartbeatPulse (so ``last_seen_ms`` moves while the vehicle is alive);
 * ``ControlStatus`` when operator arbitration or JAUS access control changes, including
-  refused commands (``rejected_commands``, ``last_rejection``);
+  refused commands (``rejected_commands``, ``last_rejection``) and, per component with
+  AccessControl, who controls it with which authority and whether that is this relay
+  (``holders``, from the engine's QueryControl and QueryAuthority);
 * both when an emergency stop is set, confirmed or cleared (``emergency``).
 """
 
@@ -69,6 +71,10 @@ def control_sample(view: VehicleView, timestamp_ms: int) -> dict[str, Any]:
         "last_rejection": view.last_rejection,
         "timestamp_ms": timestamp_ms,
         "emergency": view.emergency,
+        "holders": [{"component": str(h.component),
+                     "controller": str(h.controller) if h.controller is not None else "",
+                     "authority": h.authority, "current_authority": h.current_authority,
+                     "is_relay": h.is_relay} for h in view.holders],
     }
 
 
@@ -125,6 +131,18 @@ _ROWS: tuple[tuple[str, str, str, list[tuple[str, str, str]], str, str], ...] = 
      "answer to the relay's RequestControl"),
     ("jaus->dds", "RejectControl", "ControlStatus",
      [("response_code", "state", "control lost -> REQUESTED again or NOT_CONTROLLED")], "", ""),
+    ("jaus->dds", "ReportControl", "ControlStatus",
+     [("subsystem_id, node_id, component_id", "holders[].controller", "S.N.C, '' when none"),
+      ("authority_code", "holders[].authority", ""),
+      ("(controller == relay id)", "holders[].is_relay", "")], "QueryControl",
+     "every component with AccessControl (or IOP EnhancedAccessControl): on discovery, "
+     "when the relay loses control of it, every control.holder_query_period s"),
+    ("jaus->dds", "ReportAuthority", "ControlStatus",
+     [("authority_code", "holders[].current_authority", "")], "QueryAuthority", ""),
+    ("dds->jaus", "SetAuthority", "ControlRequest",
+     [("authority_code", "authority", "capped at relay.authority")], "",
+     "control.authority_from_operator: the holder lowers its authority (raising it "
+     "sends RequestControl)"),
     ("dds->jaus", "RequestControl", "ControlRequest",
      [("authority_code", "(relay authority)", "when an operator wins arbitration")], "",
      "one operator at a time; higher authority preempts; renewed before the timeout"),

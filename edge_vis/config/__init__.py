@@ -29,6 +29,7 @@ from edge_vis.config.deployment import (
     LinkProfile,
     OperatorEntry,
     RelayProfile,
+    TimeProfile,
     TranslatorSelection,
 )
 from edge_vis.config.loader import (
@@ -51,7 +52,8 @@ __all__ = [
     "CommandProfile", "ComponentProfile", "ControlProfile", "DdsProfile", "DiscoveryProfile",
     "EmergencyProfile",
     "EventsProfile", "LimitsProfile", "LinkProfile", "OperatorEntry", "OperatorPolicy",
-    "RelayProfile", "ReportRate", "ServiceProfile", "TranslatorSelection", "VehicleProfile",
+    "RelayProfile", "ReportRate", "ServiceProfile", "TimeProfile", "TranslatorSelection",
+    "VehicleProfile",
     "default_profile_path", "from_mapping", "link_problems", "load_default_profile",
     "load_profile", "load_vehicle_profile", "read_deployment", "read_profile_file", "read_toml",
 ]

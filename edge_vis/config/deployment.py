@@ -130,12 +130,36 @@ class ControlProfile:
     ``renewal_period`` is used when a component does not report its control timeout
     (the JTS example never answers QueryTimeout). ``max_ready_attempts`` bounds how long
     a component that never leaves INITIALIZE can hold up commanding.
+
+    ``holder_query_period``: how often each component with AccessControl is asked who
+    controls it (QueryControl, QueryAuthority), besides right after control changes; 0 =
+    only on changes. ``authority_from_operator``: the relay holds JAUS control with the
+    holding operator's authority (capped at ``relay.authority``) instead of its own, and
+    follows the operator's changes (SetAuthority to lower it, RequestControl to raise it).
     """
 
     renewal_period: float = setting(2.0, gt=0, unit="s")
     response_timeout: float = setting(2.0, gt=0, unit="s")
     retry_period: float = setting(5.0, gt=0, unit="s")
     max_ready_attempts: int = setting(3, ge=0)
+    holder_query_period: float = setting(30.0, ge=0, unit="s")
+    authority_from_operator: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class TimeProfile:
+    """The vehicles' clocks (JAUS Time service).
+
+    Each component offering Time is asked ReportTime on discovery and every
+    ``query_period`` seconds (0 = on discovery only); the clock offset is published. With
+    ``set_on_discovery`` a vehicle whose clock is off by more than ``set_threshold``
+    seconds when it is discovered gets SetTime (the relay takes control of the Time
+    component for it, as the Time service requires, and releases it afterwards).
+    """
+
+    query_period: float = setting(30.0, ge=0, unit="s")
+    set_on_discovery: bool = False
+    set_threshold: float = setting(1.0, gt=0, unit="s")
 
 
 @dataclass(frozen=True, slots=True)
@@ -284,6 +308,7 @@ class RelayProfile:
     translators: TranslatorSelection = field(default_factory=TranslatorSelection)
     discovery: DiscoveryProfile = field(default_factory=DiscoveryProfile)
     control: ControlProfile = field(default_factory=ControlProfile)
+    time: TimeProfile = field(default_factory=TimeProfile)
     events: EventsProfile = field(default_factory=EventsProfile)
     commands: CommandProfile = field(default_factory=CommandProfile)
     emergency: EmergencyProfile = field(default_factory=EmergencyProfile)

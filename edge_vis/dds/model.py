@@ -74,6 +74,16 @@ class EmergencyAction(IdlEnum, typename="edge_vis::EmergencyAction"):
     CLEAR = 1
 
 
+class ManagementCommandType(IdlEnum, typename="edge_vis::ManagementCommandType"):
+    """A JAUS Management command (prefixed: IDL enumerators share the module's scope;
+    dicts may leave the prefix out, ``"STANDBY"``)."""
+
+    MGMT_SHUTDOWN = 0
+    MGMT_STANDBY = 1
+    MGMT_RESUME = 2
+    MGMT_RESET = 3
+
+
 class Frame(IdlEnum, typename="edge_vis::Frame"):
     """Reference frame of waypoints: WGS 84 (GLOBAL) or the vehicle's local frame (LOCAL)."""
 
@@ -200,8 +210,20 @@ class VehicleStatus(IdlStruct, typename="edge_vis::VehicleStatus"):
 
 
 @dataclass
+class ComponentHolder(IdlStruct, typename="edge_vis::ComponentHolder"):
+    """Who controls one component (JAUS address ``S.N.C``; ``controller`` empty: nobody)."""
+
+    component: str = ""
+    controller: str = ""
+    authority: uint8 = 0
+    current_authority: uint8 = 0
+    is_relay: bool = False
+
+
+@dataclass
 class ControlStatus(IdlStruct, typename="edge_vis::ControlStatus"):
-    """JAUS access control of a vehicle: which operator holds it through the relay."""
+    """JAUS access control of a vehicle: which operator holds it through the relay, and
+    who controls each of its components (whether or not through this relay)."""
 
     vehicle_id: str
     key("vehicle_id")
@@ -213,6 +235,22 @@ class ControlStatus(IdlStruct, typename="edge_vis::ControlStatus"):
     timestamp_ms: int64 = 0
     #: an emergency stop is in force: no motion command is sent
     emergency: bool = False
+    holders: sequence[ComponentHolder] = field(default_factory=list)
+
+
+@dataclass
+class VehicleClock(IdlStruct, typename="edge_vis::VehicleClock"):
+    """A vehicle's clock against the relay's (JAUS Time): ``offset_ms`` = vehicle minus
+    relay, measured over a round trip of ``round_trip_ms``."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    component: str = ""
+    offset_ms: float64 = NAN
+    round_trip_ms: float64 = NAN
+    set_time_sent: uint32 = 0
+    note: str = ""
+    timestamp_ms: int64 = 0
 
 
 @dataclass
@@ -395,6 +433,18 @@ class EmergencyCommand(IdlStruct, typename="edge_vis::EmergencyCommand"):
     action: EmergencyAction
     authority: uint8 = 0
     reason: str = ""
+
+
+@dataclass
+class ManagementCommand(IdlStruct, typename="edge_vis::ManagementCommand"):
+    """Shutdown, Standby, Resume or Reset a vehicle (every Management component, or the
+    one ``component`` names as ``S.N.C``); needs the operator to hold the vehicle."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    command: ManagementCommandType
+    component: str = ""
 
 
 @dataclass
@@ -976,5 +1026,7 @@ STRUCTS: tuple[type[IdlStruct], ...] = (
     AccelerationLimitCommand,
     GeomagneticProperty,
     PoseCommand,
+    ManagementCommand,
+    VehicleClock,
 )
 """Every top-level type of the standard model; each is carried by the topic of its name."""

@@ -120,6 +120,8 @@ _STANDARD_KINDS: dict[type[IdlStruct], TopicKind] = {
     model.AccelerationLimitCommand: TopicKind.COMMAND,
     model.GeomagneticProperty: TopicKind.STATE,
     model.PoseCommand: TopicKind.COMMAND,
+    model.ManagementCommand: TopicKind.COMMAND,
+    model.VehicleClock: TopicKind.STATE,
 }
 
 

@@ -3,7 +3,9 @@
 The JAUS machine for one component is :class:`~edge_vis.engine.control.ComponentControl`;
 this module runs those machines for a whole vehicle: it decides which components must be
 controlled (those offering a service some translator commands, while an operator holds
-the vehicle), feeds them ConfirmControl, RejectControl, ReportTimeout and ReportStatus,
+the vehicle, and those of the relay's own errands such as SetTime), with which authority
+(the relay's, or the holding operator's with ``control.authority_from_operator``), feeds
+them ConfirmControl, RejectControl, ReportTimeout and ReportStatus,
 polls their timers, and tells translators when the vehicle's control summary changes.
 ReportStatus is handled here too because management readiness gates control: a vehicle
 in EMERGENCY drops queued motion commands.
@@ -26,8 +28,8 @@ log = logging.getLogger(__name__)
 
 def jaus_control(vehicle: Vehicle) -> str:
     """One word for the vehicle's JAUS control: the worst state any wanted component is in."""
-    states = {c.state for c in vehicle.controls.values() if c.wanted
-              or c.state is not ControlState.IDLE}
+    states = {c.state for c in vehicle.controls.values()
+              if not c.errand and (c.wanted or c.state is not ControlState.IDLE)}
     if not states:
         return "none"
     for state in (ControlState.REFUSED, ControlState.REQUESTING, ControlState.RELEASING):
@@ -46,22 +48,37 @@ class Access:
         self._changed = changed
 
     def update(self, vehicle: Vehicle, now: float) -> None:
-        """Want control while an operator holds the online, known vehicle; else release."""
+        """Want control while an operator holds the online, known vehicle (and of the
+        components of the relay's own errands); release the rest."""
         state = self._state
-        wanted = (vehicle.arbitration.holder is not None and vehicle.online
-                  and vehicle.services_known and not state.shutting_down)
-        if wanted:
+        usable = vehicle.online and vehicle.services_known and not state.shutting_down
+        operated = vehicle.arbitration.holder is not None and usable
+        authority = self.authority(vehicle)
+        commanded: set[JausAddress] = set()
+        if operated:
             for uri in self._controlled_services:
-                for address in vehicle.providers(uri):
-                    if address not in vehicle.controls:
-                        vehicle.controls[address] = ComponentControl(
-                            state.profile.control, state.profile.authority,
-                            vehicle.offers(address, MANAGEMENT))
+                commanded.update(vehicle.providers(uri))
+        errands = vehicle.errands if usable else set()
+        for address in sorted(commanded | errands):
+            if address not in vehicle.controls:
+                vehicle.controls[address] = ComponentControl(
+                    state.profile.control, authority, vehicle.offers(address, MANAGEMENT))
         before = jaus_control(vehicle)
         for address, ctl in vehicle.controls.items():
-            state.send_outgoing(address, ctl.want(wanted, now))
+            ctl.errand = address in errands and address not in commanded
+            state.send_outgoing(address, ctl.set_authority(authority, now))
+            state.send_outgoing(address, ctl.want(address in commanded or ctl.errand, now))
         if jaus_control(vehicle) != before:
             self._changed(vehicle, "control", now)
+
+    def authority(self, vehicle: Vehicle) -> int:
+        """The authority the relay holds ``vehicle``'s components with: its own, or with
+        ``control.authority_from_operator`` the holding operator's, capped at its own."""
+        profile = self._state.profile
+        holder = vehicle.arbitration.holder
+        if profile.control.authority_from_operator and holder is not None:
+            return min(holder.authority, profile.authority)
+        return profile.authority
 
     def release(self, vehicle: Vehicle, now: float) -> None:
         """The relay is stopping: release every component (translators are not told)."""

@@ -19,6 +19,15 @@ emergency cleared) is driven to READY again with fresh attempts; while in EMERGE
 answers RequestControl with NOT_AVAILABLE yet keeps its controller, so that answer does
 not end control.
 
+Rule 2a: an operator's Standby holds: after the relay sent Standby on an operator's
+behalf it does not drive the component back to READY until the operator sends Resume
+(or releases the vehicle). Control held only for the relay's own errands (SetTime,
+``errand``) never drives readiness either.
+
+Rule 2b: the relay's authority may change while it holds control (it follows the
+operator's, ``control.authority_from_operator``): lower goes out as SetAuthority, higher
+as RequestControl, the two ways AccessControl lets the controlling client change it.
+
 Rule 3: when ``wanted`` drops (last operator released, relay stopping), the relay sends
 ReleaseControl; RejectControl(CONTROL_RELEASED), or a timeout, ends it.
 
@@ -92,6 +101,10 @@ class ComponentControl:
         self.request_attempts = 0
         #: a ReleaseControl that timed out
         self.unanswered = False
+        #: an operator's Standby is in force: do not drive READY (rule 2a)
+        self.hold_standby = False
+        #: wanted only for the relay's own errand (SetTime): no readiness driving
+        self.errand = False
 
     # -- queries -----------------------------------------------------------------------
 
@@ -107,7 +120,7 @@ class ComponentControl:
             return False
         if not self.managed:
             return True
-        if self.status in NOT_OPERATIONAL:
+        if self.hold_standby or self.status in NOT_OPERATIONAL:
             return False
         return self.status == READY or (
             self.ready_attempts >= self.profile.max_ready_attempts and self.ready_deadline is None
@@ -125,6 +138,7 @@ class ComponentControl:
         if wanted == self.wanted:
             return []
         self.wanted = wanted
+        self.hold_standby = False
         if wanted:
             if self.state in (ControlState.IDLE, ControlState.RELEASING):
                 return self._request(now)
@@ -161,7 +175,7 @@ class ComponentControl:
         if not self.timeout_asked:
             self.timeout_asked = True
             out.append(Outgoing("QueryTimeout", {}))
-        if first and self.managed:
+        if first and self.managed and not self.errand and not self.hold_standby:
             self.ready_attempts = 0
             out.extend(self._drive_ready(now))
         return out
@@ -189,10 +203,13 @@ class ComponentControl:
         previous, self.status = self.status, status
         if (previous == EMERGENCY and status not in NOT_OPERATIONAL and status != READY
                 and self.controlled and self.managed):
-            # out of an emergency (cleared): back to READY before commanding again
+            # out of an emergency (cleared): back to READY before commanding again (unless
+            # the operator's Standby holds or this is only the relay's errand)
             self.ready_attempts = 0
             return self._drive_ready(now)
-        if self.controlled and self.managed and status != READY:
+        if self.errand or self.hold_standby:
+            self.ready_deadline = None
+        elif self.controlled and self.managed and status != READY:
             if status in NOT_OPERATIONAL:
                 self.ready_deadline = None
             elif self.ready_attempts < self.profile.max_ready_attempts and (
@@ -203,6 +220,29 @@ class ComponentControl:
             self.ready_deadline = None
             self.note = ""
         return []
+
+    def on_command(self, name: str, now: float) -> None:
+        """The relay sent Management command ``name`` on an operator's behalf (rule 2a)."""
+        if name == "Standby":
+            self.hold_standby = True
+            self.ready_deadline = None
+        elif name == "Resume":
+            self.hold_standby = False
+            self.ready_attempts = 0
+            self.note = ""
+
+    def set_authority(self, authority: int, now: float) -> list[Outgoing]:
+        """Hold control with ``authority`` from now on (rule 2b)."""
+        if authority == self.authority:
+            return []
+        lower = authority < self.authority
+        self.authority = authority
+        if not self.controlled:
+            return []  # the next RequestControl carries it
+        if lower:
+            return [Outgoing("SetAuthority", {"authority_code": authority}),
+                    Outgoing("QueryAuthority", {})]
+        return [self._request_message(), Outgoing("QueryAuthority", {})]
 
     def on_lost(self) -> None:
         """The vehicle went silent: whatever we held is gone; ask again when it returns."""
@@ -255,7 +295,8 @@ class ComponentControl:
 
     def _drive_ready(self, now: float) -> list[Outgoing]:
         """One attempt to bring the component to READY."""
-        if not self.controlled or self.status == READY or self.status in NOT_OPERATIONAL:
+        if (not self.controlled or self.status == READY or self.status in NOT_OPERATIONAL
+                or self.errand or self.hold_standby):
             return []
         if self.ready_attempts >= self.profile.max_ready_attempts:
             status = "unknown" if self.status is None else str(self.status)

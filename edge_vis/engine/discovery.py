@@ -38,7 +38,7 @@ MOBILITY = "urn:jaus:jss:mobility:"
 ENV = "urn:jaus:jss:environmentSensing:"
 
 #: service URI -> the URI it inherits from (JSIDL ``inherits-from``; core v1.1,
-#: mobility v1.0, environment sensing v1.0).
+#: mobility v1.0, environment sensing v1.0, IOP's EnhancedAccessControl).
 SERVICE_PARENTS: Mapping[str, str] = {
     CORE + "Events": CORE + "Transport",
     CORE + "AccessControl": CORE + "Events",
@@ -67,6 +67,8 @@ SERVICE_PARENTS: Mapping[str, str] = {
     ENV + "DigitalVideo": ENV + "VisualSensor",
     ENV + "AnalogVideo": ENV + "VisualSensor",
     ENV + "RangeSensor": CORE + "AccessControl",
+    # IOP (jsidl-iop): answers QueryControl/QueryAuthority like its parent
+    "urn:jaus:jss:iop:EnhancedAccessControl": CORE + "AccessControl",
 }
 
 #: ReportIdentification.type values

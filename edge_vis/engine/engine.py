@@ -19,7 +19,8 @@ Per vehicle (one JAUS subsystem) the engine keeps, once for all translators: the
 component/service tree (:mod:`~edge_vis.engine.finder`; vehicles found by a hello or their
 messages: :mod:`~edge_vis.engine.announcements`), liveness and the silence timer
 (:mod:`~edge_vis.engine.liveness`), JAUS access control and readiness of the commanded
-components (:mod:`~edge_vis.engine.access`), event subscriptions with polling fallback
+components (:mod:`~edge_vis.engine.access`), who else holds them (:mod:`~edge_vis.engine.holders`),
+the vehicles' clocks (:mod:`~edge_vis.engine.clocks`), event subscriptions with polling fallback
 (:mod:`~edge_vis.engine.reports`), command throttles and the dead-man
 (:mod:`~edge_vis.engine.commands`), operator arbitration
 (:mod:`~edge_vis.engine.control_requests`) and the emergency stop
@@ -48,10 +49,12 @@ from edge_vis.bandwidth.demands import FleetPlanner
 from edge_vis.config import RelayProfile
 from edge_vis.engine.access import Access
 from edge_vis.engine.announcements import Announcements
+from edge_vis.engine.clocks import Clocks
 from edge_vis.engine.commands import Commands
 from edge_vis.engine.control_requests import ControlRequests
 from edge_vis.engine.estop import EmergencyStops
 from edge_vis.engine.finder import Finder
+from edge_vis.engine.holders import Holders
 from edge_vis.engine.liveness import LIVENESS, MANAGEMENT, STATUS_EVERY, Liveness
 from edge_vis.engine.manager import TranslationManager
 from edge_vis.engine.rates import Rates
@@ -113,8 +116,11 @@ class Engine:
         self._commands = Commands(state, self._changed)
         self._control_requests = ControlRequests(state, self._access, self._changed)
         self._estop = EmergencyStops(state, self._changed)
+        self._holders = Holders(state, self._changed)
+        self._clocks = Clocks(state, self._access, self._changed)
         self._timer_pass = TimerPass(state, self._finder, self._liveness, self._access,
-                                    self._reports, self._commands, self._rates, self._estop)
+                                    self._reports, self._commands, self._rates, self._estop,
+                                    (self._holders.poll, self._clocks.poll))
         #: the JAUS messages the engine itself handles, by name
         self._handlers: dict[str, Handler] = {
             "ReportServices": self._finder.on_services,
@@ -123,6 +129,9 @@ class Engine:
             "RejectControl": self._access.on_reject,
             "ReportTimeout": self._access.on_timeout,
             "ReportStatus": self._on_status,
+            "ReportControl": self._holders.on_control,
+            "ReportAuthority": self._holders.on_authority,
+            "ReportTime": self._clocks.on_time,
             "ConfirmEventRequest": self._reports.on_confirm,
             "RejectEventRequest": self._reports.on_reject,
             "ReportEventTimeout": self._reports.on_event_timeout,

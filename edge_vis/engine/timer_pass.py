@@ -12,7 +12,7 @@ releases control, then reports ShutdownComplete once all are answered or timed o
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Sequence
 
 from edge_vis.engine.access import Access
 from edge_vis.engine.commands import Commands
@@ -33,7 +33,8 @@ class TimerPass:
 
     def __init__(self, state: EngineState, finder: Finder, liveness: Liveness,
                  access: Access, reports: Reports, commands: Commands, rates: Rates,
-                 estop: EmergencyStops) -> None:
+                 estop: EmergencyStops,
+                 polls: Sequence[Callable[[Vehicle, float], None]] = ()) -> None:
         self._state = state
         self._finder = finder
         self._liveness = liveness
@@ -41,6 +42,8 @@ class TimerPass:
         self._reports = reports
         self._commands = commands
         self._rates = rates
+        #: further per-vehicle duties (holder queries, clocks), each due by its own fields
+        self._polls = tuple(polls)
         self._estop = estop
         self._vehicle_due: float | None = None
         self._due_valid = False
@@ -122,6 +125,8 @@ class TimerPass:
         if vehicle.estop is not None:
             self._estop.pump(vehicle, now)
         self._access.poll(vehicle, now)
+        for poll in self._polls:
+            poll(vehicle, now)
         self._reports.poll(vehicle, now)
         if not stopping:
             self._commands.pump(vehicle, now)
@@ -136,6 +141,9 @@ class TimerPass:
             if not state.shutting_down:
                 times.append(v.next_liveness)
                 times.append(v.next_services_query)
+                if v.online:
+                    times.append(v.next_holder_query)
+                    times.append(v.next_time_query)
                 if v.online and v.last_seen is not None:
                     times.append(v.last_seen + v.silence_timeout(silence) + 1e-6)
                 for key, slot in v.commands.items():

@@ -16,7 +16,7 @@ from edge_vis.engine.discovery import Service, ServiceDiscovery, with_inherited
 from edge_vis.engine.estop import Estop
 from edge_vis.engine.subscriptions import Subscription
 from edge_vis.jaus.address import JausAddress
-from edge_vis.kit.contract import STATUS_NAMES
+from edge_vis.kit.contract import STATUS_NAMES, ClockView, HolderView
 
 #: Most severe first: the vehicle's state is the most severe of its components'.
 _SEVERITY = (5, 4, 3, 0, 2, 1)
@@ -51,6 +51,25 @@ class Vehicle:
     event_timeout_asked: set[JausAddress] = field(default_factory=set)
     request_counter: int = 0
     times_lost: int = 0
+    #: component -> who controls it, as it last reported (ReportControl, ReportAuthority)
+    holders: dict[JausAddress, HolderView] = field(default_factory=dict)
+    next_holder_query: float | None = None
+    #: ``times_lost`` when every component was last asked (a new round after found)
+    holders_round: int = -1
+    #: per component, (controlled, authority) of the relay when it was last asked
+    holders_asked_for: dict[JausAddress, tuple[bool, int]] = field(default_factory=dict)
+    #: the latest clock reading, when a QueryTime went out to which component
+    clock: ClockView | None = None
+    time_asked: dict[JausAddress, float] = field(default_factory=dict)
+    next_time_query: float | None = None
+    #: ``times_lost`` when the clock was first asked since found; QueryTime sent since
+    time_round: int = -1
+    time_attempts: int = 0
+    #: ``times_lost`` when the clock was first read since found (SetTime is decided then)
+    clock_epoch: int = -1
+    #: components the relay holds control of for an errand of its own (SetTime)
+    errands: set[JausAddress] = field(default_factory=set)
+    set_time_sent: int = 0
     #: the discovery profile that declared it from its hello or first message, if any
     announced_by: VehicleProfile | None = None
     #: the emergency stop set through the relay, until cleared (:mod:`edge_vis.engine.estop`)

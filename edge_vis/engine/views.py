@@ -85,6 +85,8 @@ class Views:
             rejected_commands=vehicle.arbitration.rejected_commands,
             last_rejection=vehicle.arbitration.last_rejection,
             notes=notes,
+            holders=tuple(h for _a, h in sorted(vehicle.holders.items())),
+            clock=vehicle.clock,
             emergency=vehicle.estop is not None or 5 in vehicle.statuses.values(),
             emergency_operator=vehicle.estop.operator_id if vehicle.estop else "",
             emergency_reason=vehicle.estop.reason if vehicle.estop else "",

@@ -34,6 +34,8 @@ from edge_vis.kit.actions import (
 )
 from edge_vis.kit.contract import (
     STATUS_NAMES,
+    ClockView,
+    HolderView,
     ReportSpec,
     TopicDecl,
     Translator,
@@ -72,9 +74,9 @@ from edge_vis.kit.rules import (
 from edge_vis.schema import read_table, setting
 
 __all__ = [
-    "CHUNK_BYTES", "NAN", "STATUS_NAMES", "Action", "Build", "Command", "CommandRule",
+    "CHUNK_BYTES", "NAN", "STATUS_NAMES", "Action", "Build", "ClockView", "Command", "CommandRule",
     "Computed", "ConfigError", "Const", "DeclareVehicle", "Each", "EmergencyRequest", "From",
-    "JausAddress", "Publish", "Put",
+    "HolderView", "JausAddress", "Publish", "Put",
     "PutEach", "ReportRule", "ReportSpec", "RuleTranslator", "SendMessage", "ShutdownComplete",
     "Spec", "TopicDecl", "Translator", "TranslatorContext", "VehicleView", "clamp", "code_of",
     "declarations", "derive_vehicle_id", "describe_rules", "extract", "flags", "get_path",

@@ -71,6 +71,11 @@ class Command:
     message set of ``name`` when two sets use that name (see :class:`SendMessage`).
     ``rate`` (Hz) and ``lifespan`` (s), when given, replace the profile's ``[commands]``
     throttle for this kind (a profile's command mapping sets them per command).
+
+    ``needs_ready``: False for commands that need control but not a READY component
+    (Management's Standby, Resume, Shutdown, Reset). ``component`` sends it to that one
+    component (it must offer ``service``); else ``every_provider`` sends it to every
+    component offering ``service``, and by default it goes to the first one.
     """
 
     vehicle_id: str
@@ -82,6 +87,9 @@ class Command:
     stop: Mapping[str, Any] | None = None
     priority: int = PRIORITY_STANDARD
     service_set: str | None = None
+    needs_ready: bool = True
+    component: JausAddress | None = None
+    every_provider: bool = False
     rate: float | None = None
     lifespan: float | None = None
 

@@ -83,12 +83,43 @@ class TopicDecl:
 
 
 @dataclass(frozen=True, slots=True)
+class HolderView:
+    """Who holds JAUS control of one component, as the component last reported it.
+
+    ``controller`` is the controlling client's address (None when nobody controls it),
+    ``authority`` the authority it controls with (ReportControl), ``current_authority``
+    the component's current authority (ReportAuthority; its default when uncontrolled),
+    ``is_relay`` whether the controller is this relay.
+    """
+
+    component: JausAddress
+    controller: JausAddress | None = None
+    authority: int = 0
+    current_authority: int = 0
+    is_relay: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class ClockView:
+    """A vehicle's clock against the relay's: ``offset`` seconds (vehicle minus relay, the
+    message's flight time taken as half the round trip ``round_trip``), read from
+    ``component``'s ReportTime; ``set_time_sent`` counts SetTime the relay sent it."""
+
+    component: JausAddress
+    offset: float
+    round_trip: float
+    set_time_sent: int = 0
+    note: str = ""
+
+
+@dataclass(frozen=True, slots=True)
 class VehicleView:
     """What translators may know about a vehicle (a snapshot; changing it changes nothing).
 
     ``state`` is the most severe management status of its components (``"READY"``,
     ``"EMERGENCY"``...), ``"UNKNOWN"`` before any ReportStatus, ``"OFFLINE"`` when lost.
-    ``services`` are ``(uri, version)`` pairs over all components.
+    ``services`` are ``(uri, version)`` pairs over all components. ``holders`` says who
+    holds each component with AccessControl, ``clock`` how far its clock is off.
     """
 
     vehicle_id: str
@@ -114,6 +145,8 @@ class VehicleView:
     emergency: bool = False
     emergency_operator: str = ""
     emergency_reason: str = ""
+    holders: tuple[HolderView, ...] = ()
+    clock: ClockView | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -206,8 +239,9 @@ class Translator(ABC):  # noqa: B024 - every hook has a harmless default
 
         ``change`` is one of ``"identified"`` (identity or services learnt),
         ``"online"``, ``"offline"``, ``"status"`` (management state), ``"control"``
-        (operator arbitration or JAUS access control) and ``"emergency"`` (an emergency
-        stop set, confirmed or cleared through the relay).
+        (operator arbitration, JAUS access control, who holds each component),
+        ``"emergency"`` (an emergency stop set, confirmed or cleared through the relay) and
+        ``"clock"`` (a new reading of the vehicle's clock).
         """
         return []
 

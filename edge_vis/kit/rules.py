@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar, Union
 
 from edge_vis.codec.types import BitField, List, Record, VarFormat, Variant
+from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.actions import Action, Command, Publish
 from edge_vis.kit.contract import ReportSpec, Translator, TranslatorContext
 
@@ -160,7 +161,10 @@ class CommandRule:
     fields, or a function of the command's fields giving them (a zero per joint).
     ``service_set`` names the message set of ``message`` when two sets use the name
     (``ExecuteList``): the command is then encoded with that set's code. ``rate`` (Hz) and
-    ``lifespan`` (s) replace the profile's ``[commands]`` throttle for this kind."""
+    ``lifespan`` (s) replace the profile's ``[commands]`` throttle for this kind.
+    ``needs_ready``/``every_provider`` are the :class:`~edge_vis.kit.actions.Command`'s;
+    ``component``, when given, names the DDS member holding a JAUS address (``S.N.C``)
+    the command is sent to instead (empty: the default destination)."""
 
     topic: str
     message: str
@@ -171,6 +175,9 @@ class CommandRule:
     stop: Mapping[str, Any] | Callable[[Mapping[str, Any]], Mapping[str, Any]] | None = None
     doc: str = ""
     service_set: str | None = None
+    needs_ready: bool = True
+    every_provider: bool = False
+    component: str = ""
     rate: float | None = None
     lifespan: float | None = None
 
@@ -489,6 +496,8 @@ class RuleTranslator(Translator):
                 present, value = put(spec, sample)
                 if present:
                     set_path(fields, path, value)
+            target = str(sample.get(rule.component) or "") if rule.component else ""
+            component = JausAddress.parse(target) if target else None
         except (ValueError, TypeError) as exc:
             log.warning("%s sample for %s not translated to %s: %s", rule.topic,
                         sample.get("vehicle_id"), rule.message, exc)
@@ -497,7 +506,9 @@ class RuleTranslator(Translator):
         return Command(str(sample.get("vehicle_id", "")), str(sample.get("operator_id", "")),
                        rule.kind, rule.message, fields, rule.service,
                        stop=dict(stop) if stop is not None else None,
-                       service_set=rule.service_set, rate=rule.rate, lifespan=rule.lifespan)
+                       service_set=rule.service_set, rate=rule.rate, lifespan=rule.lifespan,
+                       needs_ready=rule.needs_ready, component=component,
+                       every_provider=rule.every_provider)
 
     # -- the mapping table -------------------------------------------------------------------
 

@@ -22,7 +22,7 @@ from typing import Any
 READ_TOPICS: tuple[str, ...] = (
     "VehicleIdentification", "VehicleStatus", "GlobalPose", "LocalPose", "Velocity",
     "ControlStatus", "MissionStatus", "LinkStatus", "RangeScan", "ImageProduct",
-    "EnvironmentalData", "TransferStatus",
+    "EnvironmentalData", "TransferStatus", "VehicleClock",
 )
 #: command topics the monitor writes
 WRITE_TOPICS: tuple[str, ...] = ("ControlRequest", "WrenchEffortCommand", "WaypointPlan",
@@ -77,6 +77,10 @@ class VehicleRow:
     control: str = "NOT_CONTROLLED"
     controller: str = ""
     authority: int = 0
+    #: per component: (component, controller or "", its authority, is this relay)
+    holders: list[tuple[str, str, int, bool]] = field(default_factory=list)
+    #: the vehicle's clock minus the relay's, seconds (None: not read)
+    clock_offset: float | None = None
     mission: str = ""
     active_waypoint: int = -1
     last_image: str = ""
@@ -169,6 +173,14 @@ class FleetView:
         row.authority = int(s.get("authority", 0) or 0)
         row.emergency = bool(s.get("emergency", row.emergency))
         row.last_rejection = s.get("last_rejection", "") or ""
+        row.holders = [(str(h.get("component", "")), str(h.get("controller", "") or ""),
+                        int(h.get("authority", 0) or 0), bool(h.get("is_relay", False)))
+                       for h in s.get("holders", None) or []]
+
+    def _on_VehicleClock(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        offset = s.get("offset_ms")
+        row.clock_offset = offset / 1000.0 if isinstance(offset, int | float) and not (
+            math.isnan(offset)) else None
 
     def _on_MissionStatus(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
         row.mission = str(s.get("state", "")).removeprefix("MISSION_")
@@ -236,6 +248,12 @@ class FleetView:
                 extra.append(f"image {row.last_image}{size}")
             if row.went_offline:
                 extra.append(f"dropouts {row.went_offline} recovered {row.recovered}")
+            held = [f"{c} by {'relay' if relay else who}({authority})"
+                    for c, who, authority, relay in row.holders if who]
+            if held:
+                extra.append("held " + " ".join(held))
+            if row.clock_offset is not None:
+                extra.append(f"clock {row.clock_offset:+.2f} s")
             if extra:
                 lines.append(("   " + ", ".join(extra))[:width])
         if not self.vehicles:

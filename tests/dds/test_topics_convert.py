@@ -81,8 +81,10 @@ def test_kinds_decide_direction() -> None:
         "ControlRequest", "WrenchEffortCommand", "VelocityCommand", "WaypointPlan",
         "JointCommand", "EndEffectorCommand", "DeviceCommand", "PlatformCommand",
         "VectorCommand", "AccelerationLimitCommand", "PoseCommand", "EmergencyCommand",
+        "ManagementCommand",
     }
     assert registry.get("EmergencyCommand").kind is TopicKind.EMERGENCY
+    assert registry.get("VehicleClock").kind is TopicKind.STATE
     assert registry.get("GlobalPose").kind is TopicKind.TELEMETRY
     assert registry.get("VehicleIdentification").kind is TopicKind.STATE
     assert registry.get("ControlStatus").kind is TopicKind.STATE

@@ -8,7 +8,7 @@ import pytest
 
 from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.actions import Publish
-from edge_vis.kit.contract import TranslatorContext, VehicleView
+from edge_vis.kit.contract import HolderView, TranslatorContext, VehicleView
 from translators.core import CoreTranslator
 
 BASE = VehicleView(
@@ -43,12 +43,24 @@ CASES = [
     pytest.param("control", {}, "ControlStatus", {
         "vehicle_id": "SimulatedVehicle-126", "operator_id": "", "authority": 0,
         "state": "NOT_CONTROLLED", "rejected_commands": 0, "last_rejection": "",
-        "timestamp_ms": 1_700_000_005_000, "emergency": False}, id="free"),
+        "timestamp_ms": 1_700_000_005_000, "emergency": False, "holders": []}, id="free"),
     pytest.param("control", {"controller": "op1", "controller_authority": 7,
-                             "jaus_control": "controlled"}, "ControlStatus", {
+                             "jaus_control": "controlled", "holders": (
+                                 HolderView(JausAddress(126, 1, 1), JausAddress(42, 1, 1), 7,
+                                            7, True),
+                                 HolderView(JausAddress(126, 1, 2), JausAddress(9, 1, 1), 200,
+                                            200, False),
+                                 HolderView(JausAddress(126, 1, 3), None, 0, 5, False))},
+                 "ControlStatus", {
         "vehicle_id": "SimulatedVehicle-126", "operator_id": "op1", "authority": 7,
         "state": "CONTROLLED", "rejected_commands": 0, "last_rejection": "",
-        "timestamp_ms": 1_700_000_005_000, "emergency": False}, id="held"),
+        "timestamp_ms": 1_700_000_005_000, "emergency": False, "holders": [
+            {"component": "126.1.1", "controller": "42.1.1", "authority": 7,
+             "current_authority": 7, "is_relay": True},
+            {"component": "126.1.2", "controller": "9.1.1", "authority": 200,
+             "current_authority": 200, "is_relay": False},
+            {"component": "126.1.3", "controller": "", "authority": 0,
+             "current_authority": 5, "is_relay": False}]}, id="held"),
     pytest.param("control", {"controller": "op1", "controller_authority": 7,
                              "jaus_control": "requesting", "rejected_commands": 3,
                              "last_rejection": "SetWrenchEffort from op2 refused"},
@@ -56,11 +68,13 @@ CASES = [
         "vehicle_id": "SimulatedVehicle-126", "operator_id": "op1", "authority": 7,
         "state": "REQUESTED", "rejected_commands": 3,
         "last_rejection": "SetWrenchEffort from op2 refused",
-        "timestamp_ms": 1_700_000_005_000, "emergency": False}, id="requested-with-rejections"),
+        "timestamp_ms": 1_700_000_005_000, "emergency": False,
+        "holders": []}, id="requested-with-rejections"),
     pytest.param("control", {"controller": "op1", "jaus_control": "refused"}, "ControlStatus", {
         "vehicle_id": "SimulatedVehicle-126", "operator_id": "op1", "authority": 0,
         "state": "REJECTED", "rejected_commands": 0, "last_rejection": "",
-        "timestamp_ms": 1_700_000_005_000, "emergency": False}, id="vehicle-refused"),
+        "timestamp_ms": 1_700_000_005_000, "emergency": False,
+        "holders": []}, id="vehicle-refused"),
     pytest.param("emergency", {"emergency": True, "emergency_operator": "op1",
                                "emergency_reason": "set by op1", "state": "EMERGENCY"},
                  "VehicleStatus", {

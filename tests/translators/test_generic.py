@@ -144,8 +144,8 @@ def test_paths_and_names() -> None:
 
 # -- removing any one translator leaves the others working -------------------------------
 
-ALL = ("core", "emergency", "environment", "generic", "iop", "manipulator", "mobility", "ugv",
-       "uuv")
+ALL = ("core", "emergency", "environment", "generic", "iop", "management", "manipulator",
+       "mobility", "ugv", "uuv")
 
 
 def _representative(name: str) -> tuple[str, dict[str, Any], str]:
@@ -154,7 +154,7 @@ def _representative(name: str) -> tuple[str, dict[str, Any], str]:
         return "ReportStatus", {"status": 1, "reserved": 0}, "VehicleStatus"
     if name == "mobility":
         return "ReportGlobalPose", {"latitude": 1.0, "longitude": 2.0}, "GlobalPose"
-    if name in ("generic", "emergency"):  # nothing of their own from JAUS
+    if name in ("generic", "emergency", "management"):  # nothing of their own from JAUS
         return "", {}, ""
     cls = {t.name: type(t) for t in TranslationManager.from_selection(
         TranslatorSelection((name,))).translators}[name]

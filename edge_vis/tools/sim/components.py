@@ -1,7 +1,7 @@
 """Which components a simulated vehicle has and which services each one offers. No I/O.
 
 A UGV is laid out the way many real robots are: a node manager component holding
-Discovery and Liveness, a platform component with Management, the pose/velocity sensors
+Discovery and Liveness, a platform component with Management, Time, the pose/velocity sensors
 and both drivers, and a sensor component with the range sensor and the camera. The UUV
 has one component and no Discovery at all - it announces itself with a vendor message.
 """
@@ -24,6 +24,7 @@ MANAGEMENT = CORE + "Management"
 LIVENESS = CORE + "Liveness"
 DISCOVERY = CORE + "Discovery"
 LIST_MANAGER = CORE + "ListManager"
+TIME = CORE + "Time"
 GLOBAL_POSE = MOBILITY + "GlobalPoseSensor"
 LOCAL_POSE = MOBILITY + "LocalPoseSensor"
 VELOCITY_STATE = MOBILITY + "VelocityStateSensor"
@@ -54,8 +55,8 @@ class ComponentSpec:
 UGV_LAYOUT: tuple[ComponentSpec, ...] = (
     ComponentSpec(1, "NodeManager", (TRANSPORT, EVENTS, DISCOVERY, LIVENESS)),
     ComponentSpec(2, "Platform", (
-        TRANSPORT, EVENTS, ACCESS_CONTROL, MANAGEMENT, LIVENESS, GLOBAL_POSE, LOCAL_POSE,
-        VELOCITY_STATE, PRIMITIVE_DRIVER, LIST_MANAGER, WAYPOINT_LIST_DRIVER,
+        TRANSPORT, EVENTS, ACCESS_CONTROL, MANAGEMENT, LIVENESS, TIME, GLOBAL_POSE,
+        LOCAL_POSE, VELOCITY_STATE, PRIMITIVE_DRIVER, LIST_MANAGER, WAYPOINT_LIST_DRIVER,
     )),
     ComponentSpec(3, "Sensors", (
         TRANSPORT, EVENTS, ACCESS_CONTROL, RANGE_SENSOR, VISUAL_SENSOR, STILL_IMAGE,

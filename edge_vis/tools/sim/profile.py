@@ -115,6 +115,8 @@ class VehicleSpec:
     control_timeout: int = setting(5, ge=0, le=255, unit="s")
     event_timeout: int = setting(1, ge=0, le=255, unit="min")
     default_authority: int = setting(0, ge=0, le=255)
+    #: how far the vehicle's clock (JAUS Time) is off UTC at start
+    clock_offset: float = setting(0.0, ge=-1e9, le=1e9, unit="s")
     max_event_rate: float = setting(25.0, ge=0.1, le=1092, unit="Hz")
     init_time: float = setting(0.5, ge=0.0, unit="s")
     image_width: int = setting(160, ge=8, le=2048)

@@ -20,6 +20,10 @@ Theory of operation
   answered NOT_AVAILABLE (even to the controller, who keeps control), ReleaseControl with
   RejectControl NOT_AVAILABLE (control kept), control does not time out, SetAuthority,
   Reset, Shutdown, Standby and Resume are ignored, and no command moves the vehicle.
+* Management (AS5710A): Shutdown and Reset only from the controller and not in EMERGENCY:
+  control ends with RejectControl, then SHUTDOWN for good, or INITIALIZE again.
+* Time: ReportTime (time and date, per the query's presence vector) from a clock that is
+  ``clock_offset`` seconds off UTC; SetTime only from the controller.
 * Commands (SetWrenchEffort, list manager, ExecuteList) are obeyed only from the
   controller and only in READY; otherwise silently ignored and counted.
 * The kinematic model advances in fixed steps of :data:`DT` seconds.
@@ -31,6 +35,7 @@ Theory of operation
 
 from __future__ import annotations
 
+import datetime as dt
 import hashlib
 import logging
 import math
@@ -126,6 +131,7 @@ class SimVehicle:
         self.counters: Counter[str] = Counter()
         self.reboots = 0
         self._physics_time = start
+        self._now = start
         self._init_done_at = start + spec.init_time
         faults = spec.faults
         first = faults.dropout_first if faults.dropout_first is not None else faults.dropout_every
@@ -143,6 +149,8 @@ class SimVehicle:
         self.sensors = Sensors(spec, self.motion, wall_offset)
         self.sensors.t = start
         self.last_client: JausAddress | None = None
+        #: the vehicle's clock minus UTC, seconds (SetTime changes it)
+        self.clock_offset = spec.clock_offset
         self._unsupported_seen: set[tuple[str, JausAddress]] = set()
 
     # -- the sans-I/O interface -----------------------------------------------------------
@@ -156,6 +164,7 @@ class SimVehicle:
                 now: float) -> list[Action]:
         """Handle one message addressed to this subsystem; return what to send."""
         out = self._advance(now)
+        self._now = now
         if self.down:
             self.counters["ignored_while_down"] += 1
             return out
@@ -385,6 +394,43 @@ class SimVehicle:
             comp.authority = code
         return []
 
+    def _set_time(self, comp: Component, source: JausAddress, fields: dict[str, Any],
+                  now: float) -> list[Action]:
+        if comp.controller != source:  # the Time service's Controlled state only
+            self.counters["commands_ignored"] += 1
+            log.info("%s: ignoring SetTime from %s (controller %s)", self.name, source,
+                     comp.controller)
+            return []
+        current = self.clock(now)
+        stamp, date = fields.get("time_stamp"), fields.get("date_stamp")
+        if stamp is None:
+            return []
+        year, month = (2000 + date["year"], date["month"]) if date else (current.year,
+                                                                         current.month)
+        try:
+            new = dt.datetime(year, month, stamp["day"], stamp["hour"], stamp["minutes"],
+                              stamp["seconds"], stamp["milliseconds"] * 1000,
+                              tzinfo=dt.UTC)
+        except ValueError:
+            self.counters["bad_set_time"] += 1
+            return []
+        self.clock_offset += (new - current).total_seconds()
+        self.counters["set_time"] += 1
+        log.info("%s: clock set by %s to %s", self.name, source, new.isoformat())
+        return []
+
+    def clock(self, now: float) -> dt.datetime:
+        """The vehicle's clock (UTC, but ``clock_offset`` off) at ``now``."""
+        return dt.datetime.fromtimestamp(now + self.wall_offset + self.clock_offset,
+                                         tz=dt.UTC)
+
+    def _report_time(self, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
+        t = self.clock(self._now)
+        return {"time_stamp": {"milliseconds": t.microsecond // 1000, "seconds": t.second,
+                               "minutes": t.minute, "hour": t.hour, "day": t.day},
+                "date_stamp": {"day": t.day, "month": t.month,
+                               "year": min(max(t.year - 2000, 0), 127)}}
+
     def _query_timeout(self, comp: Component, source: JausAddress, fields: dict[str, Any],
                        now: float) -> list[Action]:
         if self.spec.faults.jts_example:
@@ -411,10 +457,13 @@ class SimVehicle:
             return []
         if name == "Resume" and comp.state == STANDBY:
             comp.state = READY
+            self.counters["obeyed_resume"] += 1
         elif name == "Standby" and comp.state == READY:
             comp.state = STANDBY
+            self.counters["obeyed_standby"] += 1
             self._halt()
         elif name in ("Reset", "Shutdown") and comp.state in (READY, STANDBY):
+            self.counters[f"obeyed_{name.lower()}"] += 1
             out = self._lose_control(comp, name)
             comp.state = INITIALIZE if name == "Reset" else SHUTDOWN
             if name == "Reset":
@@ -784,6 +833,7 @@ _HANDLERS: dict[str, tuple[str, Handler]] = {
     "ReleaseControl": (svc.ACCESS_CONTROL, SimVehicle._release_control),
     "SetAuthority": (svc.ACCESS_CONTROL, SimVehicle._set_authority),
     "QueryTimeout": (svc.ACCESS_CONTROL, SimVehicle._query_timeout),
+    "SetTime": (svc.TIME, SimVehicle._set_time),
     "Standby": (svc.MANAGEMENT, _management_handler("Standby")),
     "Resume": (svc.MANAGEMENT, _management_handler("Resume")),
     "Reset": (svc.MANAGEMENT, _management_handler("Reset")),
@@ -815,6 +865,7 @@ _QUERIES: dict[str, tuple[str, str, Builder]] = {
     "QueryAuthority": (svc.ACCESS_CONTROL, "ReportAuthority",
                        lambda v, c, f: {"authority_code": c.authority}),
     "QueryStatus": (svc.MANAGEMENT, "ReportStatus", SimVehicle._report_status),
+    "QueryTime": (svc.TIME, "ReportTime", SimVehicle._report_time),
     "QueryHeartbeatPulse": (svc.LIVENESS, "ReportHeartbeatPulse", SimVehicle._report_heartbeat),
     "QueryGlobalPose": (svc.GLOBAL_POSE, "ReportGlobalPose", _sensor(Sensors.global_pose)),
     "QueryLocalPose": (svc.LOCAL_POSE, "ReportLocalPose", _sensor(Sensors.local_pose)),
@@ -855,5 +906,5 @@ _QUERIES: dict[str, tuple[str, str, Builder]] = {
 
 #: reports whose optional fields follow the query's presence vector
 _PV_FILTERED = frozenset({"ReportGlobalPose", "ReportLocalPose", "ReportVelocityState",
-                          "ReportWrenchEffort", "ReportOceanEnvironment"})
+                          "ReportWrenchEffort", "ReportOceanEnvironment", "ReportTime"})
 
