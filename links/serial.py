@@ -214,19 +214,24 @@ class SerialLink(Link):
         if self._fd is None:
             self.counters.dropped("link down", len(packets))
             return
-        out = self._out
+        out, frames = self._out, self._frames
+        before = len(out)
+        sent = 0
         for packet in packets:
             if len(out) > MAX_WRITE_BUFFER:
-                self.counters.dropped("send buffer full")
-                continue
+                self.counters.dropped("send buffer full", len(packets) - sent)
+                break
             data = frame(packet)
             out += data
-            self._frames.append(len(data))
-            self.counters.sent(self.path, len(data), 1)
-        # write once per loop iteration: frames queued by one burst of input share a
-        # system call (a radio gains nothing from many small writes)
-        if self._pump_handle is None and not self._writer_armed and self._loop is not None:
-            self._pump_handle = self._loop.call_soon(self._pump)
+            frames.append(len(data))
+            sent += 1
+        if sent:
+            self.counters.sent(self.path, len(out) - before, sent)
+        # the frames of one call share one system call (the router hands over everything
+        # a burst of input produced at once); written now when nothing waits, else the
+        # pending pump or writer callback takes them along
+        if self._pump_handle is None and not self._writer_armed:
+            self._pump()
 
     def _send_urgent(self, packets: Sequence[Packet], peer: Peer | None) -> None:
         """Frames ahead of every buffered one (after the frame being written, and after

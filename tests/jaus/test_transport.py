@@ -116,3 +116,39 @@ def test_sequence_wraps_and_payload_roundtrip() -> None:
     packet = Packet(ROBOT, OCU, bytes(range(256)) * 3, sequence=65535)
     assert packet.with_sequence(65536).sequence == 0
     assert unpack_datagram(pack_datagram([packet])) == [packet]
+
+
+def test_a_forwarded_packet_leaves_as_the_bytes_it_arrived_as() -> None:
+    # message type 5 and a sequence number the relay did not choose: re-sent untouched
+    data = bytes.fromhex("02" "05" "1000" "81" "c7017e00" "01012a00" "0244" "3412")
+    (packet,) = unpack_datagram(data)
+    assert encode_packet(packet) == data[1:]
+    assert pack_datagram([packet]) == data
+
+
+def test_a_changed_copy_of_a_received_packet_is_encoded_anew() -> None:
+    from dataclasses import replace
+
+    data = bytes.fromhex("02" "00" "1000" "01" "c7017e00" "01012a00" "0244" "3412")
+    (packet,) = unpack_datagram(data)
+    renumbered = replace(packet, sequence=0x0101, priority=Priority.HIGH)
+    (back,) = unpack_datagram(pack_datagram([renumbered]))
+    assert (back.sequence, back.priority, back.payload) == (0x0101, Priority.HIGH, b"\x02\x44")
+    # equal to a packet built by hand: the kept bytes are not part of its identity
+    assert packet == Packet(ROBOT, OCU, b"\x02\x44", sequence=0x1234)
+
+
+def test_a_decoded_packet_is_a_complete_frozen_packet() -> None:
+    import dataclasses
+
+    original = Packet(ROBOT, OCU, b"\x02\x44\x10", sequence=9, priority=Priority.HIGH,
+                      broadcast=Broadcast.LOCAL, ack_nak=AckNak.REQUEST,
+                      data_flags=DataFlags.LAST, message_type=3)
+    (packet,) = unpack_datagram(pack_datagram([original]))
+    assert type(packet) is Packet
+    for f in dataclasses.fields(Packet):  # every field is set, none left empty
+        if f.compare:
+            assert getattr(packet, f.name) == getattr(original, f.name), f.name
+    assert packet == original and hash(packet) == hash(original)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        packet.sequence = 10  # type: ignore[misc]

@@ -60,6 +60,24 @@ def test_crc_check_value() -> None:
     assert crc16(b"123456789") == 0x6F91
 
 
+def _crc_bitwise(data: bytes, crc: int) -> int:
+    """CRC-16/MCRF4XX one bit at a time, as the standard defines it (reflected 0x1021)."""
+    for byte in data:
+        crc ^= byte
+        for _ in range(8):
+            crc = (crc >> 1) ^ 0x8408 if crc & 1 else crc >> 1
+    return crc
+
+
+def test_crc_agrees_with_the_bitwise_definition_for_any_input_and_seed() -> None:
+    rng = random.Random(24)
+    for _ in range(500):
+        data = rng.randbytes(rng.randrange(0, 80))
+        seed = rng.randrange(0x10000)
+        assert crc16(data, seed) == _crc_bitwise(data, seed)
+        assert crc16(bytearray(data), seed) == crc16(memoryview(data), seed) == crc16(data, seed)
+
+
 def packet(seq: int, payload: bytes = b"\x02\x20") -> Packet:
     return Packet(JausAddress(1, 1, 1), JausAddress(2, 1, 1), payload, sequence=seq)
 
