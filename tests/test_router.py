@@ -232,6 +232,42 @@ def test_local_to_local_is_delivered_without_a_link() -> None:
     assert isinstance(d, Deliver) and d.link is None and d.packet.sequence == 1
 
 
+def test_duplicate_table_is_rebuilt_after_a_burst_and_still_catches_duplicates() -> None:
+    router = make_router(duplicate_window=2.0)
+    router.set_relay("udp", "radio")
+    router.add_route(ROBOT, "radio", RADIO)
+    burst = [pkt(OCU, ROBOT, payload=b"\x05\x04" + i.to_bytes(4, "little"), seq=i & 0xFFFF)
+             for i in range(20_000)]
+    forwarded = sends(router.receive("udp", UDP_PEER, burst, now=0.0), "radio")
+    assert sum(len(s.packets) for s in forwarded) == 20_000
+    assert router.compactions == 0
+    router.on_timer(1.0)  # the burst is still within the duplicate window
+    assert router.compactions == 0
+    late = pkt(OCU, ROBOT, payload=b"\x05\x04late", seq=3)
+    router.receive("udp", UDP_PEER, [late], now=2.5)
+    for step in range(1, 40):  # sweeps until the burst's entries are forgotten
+        router.on_timer(2.5 + step * 0.05)
+    assert router.compactions == 1
+    # the rebuilt table still knows the packet seen after the burst ...
+    assert sends(router.receive("udp", UDP_PEER, [late], now=4.0)) == []
+    assert router.counters["dropped: duplicate"] == 1
+    # ... and has forgotten the burst itself (window over): a repeat is forwarded again
+    assert sends(router.receive("udp", UDP_PEER, [burst[0]], now=4.0), "radio")
+
+
+def test_a_new_static_route_replaces_a_remembered_match() -> None:
+    router = make_router()
+    router.add_route(JausAddress(126, 0xFF, 0xFF), "radio", RADIO)
+    route = router.lookup(ROBOT)
+    assert route is not None and route.link == "radio"
+    router.add_route(ROBOT, "udp", UDP_PEER)  # more specific: wins from now on
+    route = router.lookup(ROBOT)
+    assert route is not None and (route.link, route.peer) == ("udp", UDP_PEER)
+    router.remove_link("udp")
+    route = router.lookup(ROBOT)
+    assert route is not None and route.link == "radio"
+
+
 def test_urgent_jumps_paced_full_and_busy_queues_and_is_never_dropped() -> None:
     router = Router([ME])
     router.add_link("slow", bandwidth_bps=2400, queue_limit=500)

@@ -27,8 +27,13 @@ known destination → unicast; wildcard → broadcast on every link; unknown des
 broadcast with ACK requested (JTS behaviour: the owner's ACK teaches the route).
 
 *Duplicates* (redundant paths, radio retries) are dropped when ``(source, destination,
-sequence, data flags, payload hash)`` was seen within ``duplicate_window`` s; a duplicate that asks
-for an ACK is ACKed again, since our first ACK was evidently lost.
+sequence, data flags, payload)`` was seen within ``duplicate_window`` s; a duplicate that asks
+for an ACK is ACKed again, since our first ACK was evidently lost. The table keeps one
+64-bit hash of that tuple per packet (two different packets sharing it within the window
+is a chance of about 1 in 10^10 at 65,536 entries; the payload hash is salted per process,
+so it cannot be provoked from outside). After a burst, once the table is down to an eighth
+of its size, it is rebuilt small (:attr:`Router.compactions` counts it, so that the shell
+can hand the freed memory back to the system).
 
 *ACK/NAK.* ACK requests addressed to a local component are answered (empty payload, same
 sequence number and priority, ACK/NAK = 3). Our own ACK-requested sends are repeated
@@ -206,8 +211,13 @@ class Router:
         self._relay: set[tuple[str, str]] = set()
         self._learned: dict[JausAddress, Route] = {}
         self._static: list[tuple[JausAddress, Route]] = []
-        self._seen: dict[tuple[int, int, int, int, int], float] = {}
-        self._seen_order: deque[tuple[float, tuple[int, int, int, int, int]]] = deque()
+        self._seen: dict[int, float] = {}
+        self._seen_order: deque[tuple[float, int]] = deque()
+        self._seen_peak = 0
+        #: times the duplicate table was rebuilt small after a burst
+        self.compactions = 0
+        # static routes matched per destination (cleared when the static routes change)
+        self._static_hits: dict[JausAddress, Route] = {}
         self._pending: dict[tuple[int, int], _Pending] = {}
         self._next_sweep: float | None = None
         self._reassembler = (
@@ -259,6 +269,7 @@ class Router:
         self._relay = {pair for pair in self._relay if name not in pair}
         self._learned = {a: r for a, r in self._learned.items() if r.link != name}
         self._static = [(a, r) for a, r in self._static if r.link != name]
+        self._static_hits.clear()
 
     def set_relay(self, source: str, target: str, enabled: bool = True, *,
                   both_ways: bool = True) -> None:
@@ -273,14 +284,21 @@ class Router:
         """Seed the address book: ``pattern`` (wildcards allowed) lives at ``(link, peer)``."""
         self._static.append((pattern, Route(link, peer, static=True)))
         self._static.sort(key=lambda item: _wildcards(item[0]))
+        self._static_hits.clear()
 
     def lookup(self, address: JausAddress) -> Route | None:
         """Where ``address`` lives: a learned route, else the most specific static one."""
         route = self._learned.get(address)
         if route is not None:
             return route
+        route = self._static_hits.get(address)
+        if route is not None:
+            return route
         for pattern, static in self._static:
             if pattern.matches(address):
+                if len(self._static_hits) >= self.config.max_routes:
+                    self._static_hits.clear()
+                self._static_hits[address] = static
                 return static
         # a subsystem is one vehicle behind one link: another of its components we heard
         # from says where this one lives (no broadcast with ACK over a slow radio)
@@ -309,22 +327,25 @@ class Router:
         learned = self._learned
         local = self._local
         seen = self._seen
-        window = self.config.duplicate_window
-        self._expire_duplicates(now, 64)  # a little per call: no stall after a burst
+        expiry = now + self.config.duplicate_window
+        seen_order = self._seen_order
+        max_duplicates = self.config.max_duplicates
+        if seen_order and seen_order[0][0] <= now:
+            self._expire_duplicates(now, 64)  # a little per call: no stall after a burst
         if self._next_sweep is None:
             self._next_sweep = now + self.config.sweep_interval
+        counters["received"] += len(packets)
         for packet in packets:
-            counters["received"] += 1
             source = packet.source
             if source in local:
                 counters["dropped: own source"] += 1
                 continue
             dest = packet.destination
-            key = (source.id, dest.id, packet.sequence, packet.data_flags,
-                   hash(packet.payload))
+            key = hash((source.id, dest.id, packet.sequence, packet.data_flags,
+                        packet.payload))
             route = learned.get(source)
-            expiry = seen.get(key)
-            if expiry is not None and expiry > now:
+            until = seen.get(key)
+            if until is not None and until > now:
                 counters["dropped: duplicate"] += 1
                 if route is not None and route.link == link and route.peer == peer:
                     route.seen = now
@@ -332,9 +353,9 @@ class Router:
                     self._queue(actions, link, peer, [_ack(packet)], now)
                     counters["acks sent"] += 1
                 continue
-            if len(seen) < self.config.max_duplicates:
-                seen[key] = now + window
-                self._seen_order.append((now + window, key))
+            if len(seen) < max_duplicates:
+                seen[key] = expiry
+                seen_order.append((expiry, key))
             else:
                 counters["duplicate table full"] += 1
             if not source.is_broadcast:
@@ -360,7 +381,7 @@ class Router:
                 self._deliver_up(actions, packet, link, peer, now)
             # forwarding to other links
             if not dest.is_broadcast:
-                route = learned.get(dest) or self.lookup(dest)
+                route = learned.get(dest) or self._static_hits.get(dest) or self.lookup(dest)
                 if route is not None:
                     if route.link == link:
                         counters["dropped: destination on arrival link"] += 1
@@ -497,7 +518,9 @@ class Router:
             if state.queued_bytes:
                 self._drain(state, now, actions)
         if self._next_sweep is not None and now >= self._next_sweep:
+            self._seen_peak = max(self._seen_peak, len(self._seen))
             more = self._expire_duplicates(now, 4096)
+            self._compact_duplicates()
             self._next_sweep = now + (0.01 if more else self.config.sweep_interval)
             limit = now - self.config.peer_timeout
             stale = [a for a, r in self._learned.items() if r.seen < limit]
@@ -584,6 +607,19 @@ class Router:
             if seen.get(key) == expiry:
                 del seen[key]
         return bool(order) and order[0][0] <= now
+
+    def _compact_duplicates(self) -> None:
+        """Rebuild the duplicate table once a burst has passed.
+
+        A dict never shrinks as entries are deleted: the 20,000 slots a burst needed would
+        stay allocated (and the memory around them fragmented) for as long as the relay runs.
+        """
+        seen = self._seen
+        if self._seen_peak >= 4096 and len(seen) <= self._seen_peak // 8:
+            self._seen = dict(seen)
+            self._seen_order = deque(self._seen_order)
+            self._seen_peak = len(seen)
+            self.compactions += 1
 
     def _queue(self, actions: list[Action], link: str, peer: Peer | None,
                packets: Sequence[Packet], now: float) -> None:
