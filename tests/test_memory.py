@@ -49,3 +49,41 @@ def test_an_operator_chosen_threshold_is_left_alone() -> None:
     tuned, mapped = probe(env)
     assert tuned == "False"
     assert mapped == 0  # 40 KiB stays below the operator's 1 MiB threshold: from the heap
+
+
+RELEASE_PROBE = """
+from edge_vis.shell.memory import release_memory
+def rss():
+    return int(open("/proc/self/statm").read().split()[1]) * 4096 / 2**20
+idle = rss()
+blocks = [bytes(2048) + i.to_bytes(4, "little") for i in range(40_000)]  # C heap blocks
+kept = blocks[::16]  # a few survive a burst, scattered through the heap
+del blocks
+held = rss()
+release_memory()
+print(idle, held, rss())
+"""
+
+
+@glibc
+def test_memory_a_burst_freed_returns_to_the_system_when_released() -> None:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("MALLOC_")}
+    out = subprocess.run([sys.executable, "-c", RELEASE_PROBE], capture_output=True,
+                         text=True, env=env, check=True).stdout.split()
+    idle, held, released = map(float, out)
+    # about 80 MiB were taken; the survivors keep glibc from shrinking the heap by itself
+    assert held - idle > 40
+    assert released - idle < (held - idle) / 3
+
+
+def test_the_relay_command_loads_neither_other_commands_nor_openssl() -> None:
+    probe = ("import sys; from edge_vis.cli import build_parser; build_parser('run'); "
+             "print(sorted(m for m in ('edge_vis.tools.sim.runner', 'edge_vis.tools.monitor_view',"
+             " 'ssl') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "[]"
+    # ``ssl`` itself still works for whoever needs it later
+    subprocess.run([sys.executable, "-c", "from edge_vis.cli import build_parser; "
+                    "build_parser('run'); import ssl, asyncio; ssl.create_default_context()"],
+                   check=True)

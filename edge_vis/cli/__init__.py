@@ -5,6 +5,9 @@ subcommand), ``HELP`` (one line), ``add_arguments(parser)`` and ``run(args) -> i
 found by listing the package, so adding a subcommand is adding a module. ``main`` maps the
 :class:`~edge_vis.errors.EdgeVisError` tree to exit status 2 with a one-line message,
 so a user sees the problem rather than a traceback.
+
+A subcommand's module is imported only when it is the one asked for (or for ``--help``):
+``edge-vis run`` does not carry the simulator, the monitor or the demo in its memory.
 """
 
 from __future__ import annotations
@@ -20,9 +23,18 @@ from types import ModuleType
 from edge_vis import __version__
 from edge_vis.errors import EdgeVisError
 
+#: global options that take a value (skipped when looking for the subcommand)
+_VALUED = ("--log-level", "--log-format")
 
-def _command_modules() -> list[ModuleType]:
+
+def _command_modules(only: str | None = None) -> list[ModuleType]:
     names = sorted(m.name for m in pkgutil.iter_modules(__path__) if not m.ispkg)
+    if only is not None and only.replace("-", "_") in names:
+        names = [only.replace("-", "_")]
+        if only == "run":  # the relay never speaks TLS: no OpenSSL in its memory
+            from edge_vis.shell.memory import import_asyncio_without_tls
+
+            import_asyncio_without_tls()
     modules = []
     for name in names:
         try:
@@ -48,8 +60,21 @@ def _unavailable(name: str, exc: ImportError) -> ModuleType:
     return stub
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The full argument parser with every subcommand."""
+def _command_of(argv: Sequence[str]) -> str | None:
+    """The subcommand named in ``argv``, if any (before any help option)."""
+    args = iter(argv)
+    for arg in args:
+        if arg in ("-h", "--help", "--version"):
+            return None
+        if arg in _VALUED:
+            next(args, None)
+        elif not arg.startswith("-"):
+            return arg
+    return None
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser: with every subcommand, or only ``command``'s when it names one."""
     parser = argparse.ArgumentParser(
         prog="edge-vis",
         description="Relay JAUS robots to a UCS-MDE-style data model over DDS.",
@@ -64,7 +89,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="log line format on stderr (default text)",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for module in _command_modules():
+    for module in _command_modules(command):
         child = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
         module.add_arguments(child)
         child.set_defaults(_run=module.run)
@@ -102,7 +127,8 @@ def setup_logging(level: str, fmt: str) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the process exit status."""
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(_command_of(argv))
     args = parser.parse_args(argv)
     if not getattr(args, "_run", None):
         parser.print_help()

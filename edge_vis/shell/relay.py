@@ -41,6 +41,7 @@ from edge_vis.routing.accounting import Kind, LogLimiter, Tally, losses, tallies
 from edge_vis.routing.link import Link, Peer, create_link
 from edge_vis.routing.router import Deliver, DeliveryFailed, Router, RouterConfig, SendPackets
 from edge_vis.routing.traffic import priority_for
+from edge_vis.shell.memory import release_memory
 from edge_vis.shell.mirror import Mirror
 
 log = logging.getLogger(__name__)
@@ -315,10 +316,13 @@ class Runtime:
         self._timer = None
         self._timer_at = None
         now = self._loop.time()
+        compactions = self.router.compactions
         self._carry_router(self.router.on_timer(now), now)
         if self.engine is not None:
             self.engine.on_timer(now)
         self._pump_engine(now)
+        if self.router.compactions != compactions:  # a burst is over: give its memory back
+            release_memory()
 
     # -- outputs -----------------------------------------------------------------------------
     def _carry_router(self, actions: Iterable[object], now: float) -> None:

@@ -22,6 +22,7 @@ from edge_vis.errors import DecodeError
 from edge_vis.jaus.transport import Packet, pack_datagram, unpack_datagram
 from edge_vis.routing.link import Link, LinkOptions, LinkUrl, Peer
 from edge_vis.routing.router import Action, Deliver, DeliveryFailed, Router, SendPackets
+from edge_vis.shell.memory import release_memory
 
 _BUSES: dict[str, dict[str, MemoryLink]] = {}
 _anonymous = itertools.count(1)
@@ -185,4 +186,7 @@ class RouterNode:
     def _fire(self) -> None:
         self._timer = None
         self._timer_at = None
+        compactions = self.router.compactions
         self._execute(self.router.on_timer(self.now()))
+        if self.router.compactions != compactions:  # a burst is over: give its memory back
+            release_memory()
