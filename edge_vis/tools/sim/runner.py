@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from edge_vis.catalogue import Catalogue, default_catalogue
+from edge_vis.tools.sim.scripted import vehicle_catalogue
 from edge_vis.errors import DecodeError, EncodeError
 from edge_vis.jaus import serial_framing as jserial
 from edge_vis.jaus.address import JausAddress
@@ -493,7 +494,9 @@ class Simulation:
     def __init__(self, profile: SimProfile, catalogue: Catalogue | None = None) -> None:
         self.profile = profile
         self.catalogue = catalogue if catalogue is not None else default_catalogue()
-        self.endpoints = [endpoint_for(v, self.catalogue) for v in profile.vehicles]
+        #: a vehicle with JSIDL of its own speaks the shared catalogue plus its messages
+        self.endpoints = [endpoint_for(v, vehicle_catalogue(v.jsidl, self.catalogue))
+                          for v in profile.vehicles]
 
     async def start(self) -> None:
         """Open every vehicle's medium; on failure close the ones already open.
