@@ -23,7 +23,6 @@ from pathlib import Path
 from typing import Any
 
 from edge_vis.catalogue import Catalogue, default_catalogue
-from edge_vis.tools.sim.scripted import vehicle_catalogue
 from edge_vis.errors import DecodeError, EncodeError
 from edge_vis.jaus import serial_framing as jserial
 from edge_vis.jaus.address import JausAddress
@@ -38,6 +37,7 @@ from edge_vis.jaus.transport import (
 )
 from edge_vis.tools.sim.outputs import Action, Restarted, Send
 from edge_vis.tools.sim.profile import SimProfile, VehicleSpec
+from edge_vis.tools.sim.scripted import vehicle_catalogue
 from edge_vis.tools.sim.subsystem import SimVehicle
 
 log = logging.getLogger(__name__)

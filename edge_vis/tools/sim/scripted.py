@@ -248,4 +248,5 @@ def _services(kind: Any, services: Iterable[tuple[str, tuple[int, int]]]) -> lis
     return out
 
 
-__all__ = ["UUV_HELLO", "Drift", "HelloSpec", "ReportSpec", "build", "hello_fields", "problems", "report_fields", "services_of", "vehicle_catalogue"]
+__all__ = ["UUV_HELLO", "Drift", "HelloSpec", "ReportSpec", "build", "hello_fields", "problems",
+           "report_fields", "services_of", "vehicle_catalogue"]
