@@ -32,8 +32,10 @@ def test_every_shipped_profile_is_found() -> None:
 def test_every_shipped_profile_checks_ok(path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["check", str(path)]) == 0, capsys.readouterr().err
     kind = KIND_BY_FOLDER.get(path.parent.name, "deployment")
-    if path.parent.parent.name == "examples":  # an example's folder holds both kinds
-        kind = "deployment" if "[relay]" in path.read_text() else "vehicle"
+    if path.parent.parent.name == "examples":  # an example's folder holds every kind
+        text = path.read_text()
+        kind = "deployment" if "[relay]" in text else "sim" if 'kind = "custom"' in text \
+            else "vehicle"
     assert capsys.readouterr().out.startswith(f"OK {path}: {kind} profile: ")
 
 

@@ -23,6 +23,29 @@ A ``uuv`` does not implement JAUS Discovery: it announces itself with the vendor
 ``VendorHello`` message and reports ocean environment and ATR image notices unsolicited;
 with ``atr_dir`` set, each announced ATR image is also written there as ``atr-<id>.png``
 (ready for ``edge-vis send-image``).
+
+A ``custom`` vehicle is one component (``component``, default 1) whose messages come from
+the user's JSIDL, with no Python (:mod:`edge_vis.tools.sim.scripted`)::
+
+    [[vehicles]]
+    name = "pack"
+    kind = "custom"
+    subsystem = 77
+    component = 3
+    link = "udp://127.0.0.88:3794"
+    jsidl = ["BatteryPack.xml"]               # relative to the profile file
+    hello_period = 2.0
+    hello = { message = "ReportBatteryHello", services_field = "services",
+              fields = { pack_serial = "BP-0042", chemistry = "LIFEPO4" } }
+
+    [[vehicles.reports]]
+    message = "ReportBatteryPack"
+    query = "QueryBatteryPack"                # answered when asked; period = N: also sent
+    fields = { voltage = 48.2, pack_state = "DISCHARGING" }
+    drift = { voltage = { amplitude = 0.3, period = 20.0 } }
+
+Its services (``services``, default: those its JSIDL says declare the hello and reports)
+are what a ``services_field`` of the hello lists. Messages it does not know are counted.
 The dataclasses below are the schema: the validation kit (:mod:`edge_vis.schema`) reads
 the file against them, so each key's default and range is written once, on its field.
 Every problem is collected and raised together as one :class:`~edge_vis.errors.ConfigError`.
@@ -38,9 +61,11 @@ from urllib.parse import urlsplit
 
 from edge_vis.config.loader import read_toml
 from edge_vis.schema import Reader, setting
+from edge_vis.tools.sim import scripted
 from edge_vis.tools.sim.kinematics import Origin
+from edge_vis.tools.sim.scripted import HelloSpec, ReportSpec
 
-KINDS = ("ugv", "uuv")
+KINDS = ("ugv", "uuv", "custom")
 
 
 def _rejects(value: bool | tuple[str, ...]) -> frozenset[str]:
@@ -127,6 +152,14 @@ class VehicleSpec:
     bulk_image_port: int = setting(0, ge=0, le=65535)
     atr_dir: str = ""
     faults: FaultSpec = field(default_factory=FaultSpec)
+    #: custom: the component id of its one component
+    component: int = setting(1, ge=1, le=254)
+    #: custom: JSIDL files of its messages (relative to the profile)
+    jsidl: tuple[Path, ...] = ()
+    #: custom: the services it offers (default: those declaring its hello and reports)
+    services: tuple[str, ...] = ()
+    hello: HelloSpec | None = None
+    reports: tuple[ReportSpec, ...] = ()
     #: the profile's seed plus the vehicle's index
     seed: int = setting(0, toml=False)
 
@@ -140,6 +173,16 @@ class VehicleSpec:
         """The (ip, port) a UDP vehicle binds."""
         parts = urlsplit(self.link)
         return parts.hostname or "127.0.0.1", parts.port if parts.port is not None else 3794
+
+    def validate(self) -> Iterable[tuple[str, str]]:
+        """Only a custom vehicle says what it sends, and it must send something."""
+        custom = self.kind == "custom"
+        for key, given in (("jsidl", self.jsidl), ("services", self.services),
+                           ("hello", self.hello), ("reports", self.reports)):
+            if given and not custom:
+                yield key, f"only a vehicle of kind = \"custom\" takes {key} (this is {self.kind})"
+        if custom and self.hello is None and not self.reports:
+            yield "kind", "a custom vehicle needs a hello, reports, or both"
 
 
 @dataclass(frozen=True, slots=True)
@@ -174,15 +217,22 @@ def read_sim_profile(reader: Reader, data: Mapping[str, Any]) -> SimProfile | No
                 reader.problem(f"vehicles[{i}].{what}",
                                f"{key!r} is also used by {seen[(what, key)]}")
             seen[(what, key)] = str(name)
+    for i, vehicle in vehicles:
+        if vehicle.kind == "custom":
+            for key, reason in scripted.problems(vehicle.jsidl, vehicle.hello,
+                                                 vehicle.reports, f"vehicles[{i}]"):
+                reader.problem(key, reason)
     if profile is None:
         return None
     return replace(profile, vehicles=tuple(replace(v, seed=profile.seed + i)
                                            for i, v in vehicles))
 
 
-def parse_profile(data: Mapping[str, Any], source: str = "") -> SimProfile:
-    """Build a :class:`SimProfile` from parsed TOML; raise ConfigError listing every problem."""
-    reader = Reader(source)
+def parse_profile(data: Mapping[str, Any], source: str = "",
+                  base_dir: Path | None = None) -> SimProfile:
+    """Build a :class:`SimProfile` from parsed TOML; raise ConfigError listing every problem.
+    Relative JSIDL paths are taken from ``base_dir``."""
+    reader = Reader(source, base_dir=base_dir)
     profile = read_sim_profile(reader, data)
     reader.raise_problems()
     assert profile is not None
@@ -191,4 +241,4 @@ def parse_profile(data: Mapping[str, Any], source: str = "") -> SimProfile:
 
 def load_profile(path: str | Path) -> SimProfile:
     """Read and check a simulation profile file."""
-    return parse_profile(read_toml(path), str(path))
+    return parse_profile(read_toml(path), str(path), Path(path).parent)

@@ -37,6 +37,7 @@ from edge_vis.jaus.transport import (
 )
 from edge_vis.tools.sim.outputs import Action, Restarted, Send
 from edge_vis.tools.sim.profile import SimProfile, VehicleSpec
+from edge_vis.tools.sim.scripted import vehicle_catalogue
 from edge_vis.tools.sim.subsystem import SimVehicle
 
 log = logging.getLogger(__name__)
@@ -493,7 +494,9 @@ class Simulation:
     def __init__(self, profile: SimProfile, catalogue: Catalogue | None = None) -> None:
         self.profile = profile
         self.catalogue = catalogue if catalogue is not None else default_catalogue()
-        self.endpoints = [endpoint_for(v, self.catalogue) for v in profile.vehicles]
+        #: a vehicle with JSIDL of its own speaks the shared catalogue plus its messages
+        self.endpoints = [endpoint_for(v, vehicle_catalogue(v.jsidl, self.catalogue))
+                          for v in profile.vehicles]
 
     async def start(self) -> None:
         """Open every vehicle's medium; on failure close the ones already open.

@@ -42,13 +42,14 @@ import math
 import random
 from collections import Counter
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 from edge_vis.catalogue import Catalogue, Message, default_catalogue
 from edge_vis.errors import DecodeError, EncodeError
 from edge_vis.jaus.address import BROADCAST, JausAddress
 from edge_vis.tools.sim import components as svc
-from edge_vis.tools.sim import self_report
+from edge_vis.tools.sim import scripted, self_report
 from edge_vis.tools.sim.components import ComponentSpec
 from edge_vis.tools.sim.events import EVERY_CHANGE, PERIODIC, EventTable, Subscription
 from edge_vis.tools.sim.kinematics import Motion, clamp
@@ -121,6 +122,11 @@ class SimVehicle:
         self.rng = random.Random(spec.seed)
         self.components: dict[JausAddress, Component] = {}
         self.layout = svc.layout(spec.kind)
+        if spec.kind == "custom":
+            services = spec.services or scripted.services_of(self.catalogue, [
+                *([spec.hello.message] if spec.hello else []),
+                *(r.message for r in spec.reports)])
+            self.layout = (ComponentSpec(spec.component, spec.name, services),)
         for cspec in self.layout:
             addr = svc.address(spec.subsystem, spec.node, cspec)
             self.components[addr] = Component(cspec, addr, spec)
@@ -141,7 +147,16 @@ class SimVehicle:
         self._next_malformed = (start + self.rng.expovariate(faults.malformed_rate)
                                 if faults.malformed_rate > 0 else math.inf)
         uuv = spec.kind == "uuv"
-        self._next_hello = start if uuv else math.inf
+        self.hello = spec.hello
+        if uuv and self.hello is None:
+            self.hello = replace(scripted.UUV_HELLO, fields={
+                **scripted.UUV_HELLO.fields, "bulk_image_port": spec.bulk_image_port})
+        self._next_hello = start if self.hello is not None else math.inf
+        self._start = start
+        #: report index -> when it is next sent unasked
+        self._next_report = {i: start + r.period for i, r in enumerate(spec.reports)
+                             if r.period > 0}
+        self._answers = {r.query: r for r in spec.reports if r.query}
         self._next_environment = (start + spec.environment_period
                                   if uuv and spec.environment_period > 0 else math.inf)
         self._next_atr = start + spec.atr_period if uuv and spec.atr_period > 0 else math.inf
@@ -179,6 +194,12 @@ class SimVehicle:
         for comp in self.components.values():
             if not destination.matches(comp.address):
                 continue
+            answer = self._answers.get(message.name)
+            if answer is not None:
+                handled = True
+                self.counters["queries_answered"] += 1
+                out.append(self._scripted_report(comp, source, answer, now))
+                continue
             entry = _HANDLERS.get(message.name)
             if entry is not None and comp.offers(entry[0]):
                 handled = True
@@ -213,7 +234,13 @@ class SimVehicle:
             out.append(self._malformed())
         if now >= self._next_hello:
             self._next_hello = now + self.spec.hello_period
-            out.append(self._vendor_hello())
+            out.append(self._hello())
+        for i, due in self._next_report.items():
+            if now >= due:
+                report = self.spec.reports[i]
+                self._next_report[i] = now + report.period
+                out.append(self._scripted_report(self._first_component(), BROADCAST, report,
+                                                 now))
         if now >= self._next_environment:
             self._next_environment = now + self.spec.environment_period
             comp = self._first(svc.OCEAN_ENVIRONMENT)
@@ -231,7 +258,8 @@ class SimVehicle:
         if self.down:  # silent: only the model and the end of the drop-out matter
             return min(self._physics_time + DT, self._dropout_end)
         times = [self._physics_time + DT, self._dropout_start, self._dropout_end,
-                 self._next_malformed, self._next_hello, self._next_environment, self._next_atr]
+                 self._next_malformed, self._next_hello, self._next_environment, self._next_atr,
+                 *self._next_report.values()]
         for comp in self.components.values():
             if (comp.controller is not None and self.spec.control_timeout > 0
                     and comp.state != EMERGENCY):
@@ -767,18 +795,23 @@ class SimVehicle:
 
     # -- UUV vendor messages --------------------------------------------------------------
 
-    def _vendor_hello(self) -> Send:
-        comp = self._first(svc.VENDOR_DISCOVERY) or next(iter(self.components.values()))
-        a = comp.address
-        return Send(a, BROADCAST, "VendorHello", {
-            "vehicle_name": self.name, "vehicle_type": 1,
-            "jaus_id": {"subsystem": a.subsystem, "node": a.node, "component": a.component},
-            "firmware_version": "sim-1.0",
-            "services": [{"uri": uri, "major_version": svc.version_of(uri)[0],
-                          "minor_version": svc.version_of(uri)[1]}
-                         for uri in comp.spec.services],
-            "bulk_image_port": self.spec.bulk_image_port,
-        })
+    def _first_component(self) -> Component:
+        return next(iter(self.components.values()))
+
+    def _hello(self) -> Send:
+        """The hello of the profile (custom) or the UUV's VendorHello, from the JSIDL."""
+        assert self.hello is not None
+        comp = self._first(svc.VENDOR_DISCOVERY) or self._first_component()
+        services = [(uri, svc.version_of(uri)) for uri in comp.spec.services]
+        return Send(comp.address, BROADCAST, self.hello.message, scripted.hello_fields(
+            self.catalogue, self.hello, self.name, comp.address, services))
+
+    def _scripted_report(self, comp: Component, to: JausAddress,
+                         report: scripted.ReportSpec, now: float) -> Send:
+        """A report of the profile, its numbers drifted to now."""
+        self.counters["reports_sent"] += 1
+        fields = scripted.report_fields(self.catalogue, report, now - self._start)
+        return Send(comp.address, to, report.message, fields)
 
     def atr_image(self, image_id: int) -> bytes:
         """The bytes of ATR image ``image_id`` (the same every time it is asked for)."""
