@@ -12,11 +12,7 @@ report on the BatteryPack topic.
 from __future__ import annotations
 
 import asyncio
-import shutil
 import struct
-import sys
-import time
-import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -25,11 +21,12 @@ import pytest
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import Packet, pack_datagram, unpack_datagram
 
+from .battery_rig import identified_and_reporting, prepare, relay_and_operator
+
 pytestmark = pytest.mark.dds
 
-dds = pytest.importorskip("edge_vis.dds")
+pytest.importorskip("edge_vis.dds")
 
-EXAMPLE = Path(__file__).resolve().parents[2] / "profiles" / "examples" / "battery"
 RELAY_IP, PACK_IP = "127.0.0.87", "127.0.0.88"
 PACK = JausAddress(77, 1, 3)
 RELAY = JausAddress(200, 1, 1)
@@ -101,69 +98,25 @@ class BatteryPackPeer(asyncio.DatagramProtocol):
         self.transport.close()
 
 
-async def collect(operator: Any, topic: str, vehicle_id: str,
-                  timeout: float = 10.0) -> dict[str, Any]:
-    reader = operator.reader(topic)
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        for sample in await asyncio.to_thread(reader.take, 0.2):
-            if sample["vehicle_id"] == vehicle_id:
-                return dict(sample)
-    raise AssertionError(f"no {topic} sample of {vehicle_id} within {timeout} s")
-
-
 def test_battery_pack_from_jsidl_to_dds(domain_id: int, partition: str,
                                         tmp_path: Path) -> None:
-    from edge_vis.catalogue.jsidl import profile_catalogue
-    from edge_vis.dds.topics import TopicRegistry
-    from translators.generic import GenericTranslator
-
-    for name in ("BatteryPack.xml", "battery-pack.toml", "relay.toml"):
-        shutil.copy(EXAMPLE / name, tmp_path / name)
-    relay_toml = tmp_path / "relay.toml"
-    text = relay_toml.read_text()
-    for old, new in (('url = "udp://127.0.0.1:3794"',
-                      f'url = "udp://{RELAY_IP}:3794?peers={PACK_IP}:3794"'),
-                     ("[dds]\ndomain = 0\n",
-                      f'[dds]\ndomain = {domain_id}\npartitions = ["{partition}"]\n')):
-        assert old in text
-        text = text.replace(old, new)
-    relay_toml.write_text(text)
-    # the operator's side: the topic the mapping publishes, typed from the JSIDL
-    generic = GenericTranslator()
-    generic.configure(tomllib.loads(text)["translators"]["generic"])
-    generic.verify(profile_catalogue([EXAMPLE / "BatteryPack.xml"]))
-    registry = TopicRegistry.standard()
-    registry.register_all(generic.topic_types, owner="station")
+    relay_toml, registry = prepare(tmp_path, domain_id, partition, RELAY_IP, PACK_IP)
 
     async def run() -> None:
         loop = asyncio.get_running_loop()
         peer = BatteryPackPeer()
         await loop.create_datagram_endpoint(lambda: peer, local_addr=(PACK_IP, 3794))
-        relay = await asyncio.create_subprocess_exec(
-            sys.executable, "-m", "edge_vis", "run", "--profile", str(relay_toml),
-            "--duration", "60", stdout=asyncio.subprocess.DEVNULL,
-            stderr=asyncio.subprocess.PIPE)
-        operator = dds.DdsBridge(domain_id, (partition,), registry)
         try:
-            ident = await collect(operator, "VehicleIdentification", "BP-0042", 20.0)
-            assert (ident["name"], ident["vehicle_type"]) == ("Aft pack", "LIFEPO4")
-            assert ident["jaus_address"] == "77.1.3"
-            report = await collect(operator, "BatteryPack", "BP-0042")
-            assert report["voltage_v"] == pytest.approx(48.2, abs=0.01)
-            assert report["current_a"] == pytest.approx(-12.5, abs=0.01)
-            assert report["state_of_charge_pct"] == pytest.approx(81.0, abs=0.4)
-            assert report["state"] == 2 and report.get("temperature_c") is None  # not sent
-            # found without JAUS discovery and asked for its report by polling: the pack
-            # lists no Events service
-            assert peer.asked(0xE0C1) and not peer.asked(0x01F0)  # CreateEvent
-            assert not peer.asked(0x2B03) and not peer.asked(0x2B01)  # Query{Services,Config}
+            async with relay_and_operator(relay_toml, domain_id, partition,
+                                          registry) as operator:
+                report = await identified_and_reporting(operator)
+                assert report["state_of_charge_pct"] == pytest.approx(81.0, abs=0.4)
+                assert report.get("temperature_c") is None  # not sent
+                # found without JAUS discovery and asked for its report by polling: the
+                # pack lists no Events service
+                assert peer.asked(0xE0C1) and not peer.asked(0x01F0)  # CreateEvent
+                assert not peer.asked(0x2B03) and not peer.asked(0x2B01)  # Query{Services,..}
         finally:
-            if relay.returncode is None:
-                relay.terminate()
-            _, err = await relay.communicate()
-            operator.close()
             peer.close()
-        assert relay.returncode in (0, -15), err.decode()[-2000:]
 
     asyncio.run(run())
