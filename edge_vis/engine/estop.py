@@ -32,6 +32,7 @@ import logging
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from edge_vis.engine.control import EMERGENCY
 from edge_vis.engine.discovery import CORE
 from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.actions import EMERGENCY_CLASS, PRIORITY_SAFETY, EmergencyRequest, SendMessage
@@ -44,8 +45,6 @@ log = logging.getLogger(__name__)
 
 MANAGEMENT = CORE + "Management"
 PLATFORM_STATE = "urn:jaus:jss:iop:PlatformState"
-#: ReportStatus.status of a component in emergency
-EMERGENCY = 5
 #: SetEmergency/ClearEmergency emergency_code: the only one defined
 STOP = 1
 #: requests kept for vehicles not discovered yet
@@ -142,7 +141,7 @@ class EmergencyStops:
             return f"{what} refused: {refusal}" if refusal else ""
         estop = vehicle.estop if vehicle is not None else None
         if vehicle is not None and estop is None:
-            if 5 in vehicle.statuses.values():
+            if EMERGENCY in vehicle.statuses.values():
                 return (f"{what} refused: the vehicle's emergency was not set through this "
                         f"relay; only the client that set it can clear it")
             return f"{what} refused: no emergency stop is set"

@@ -13,6 +13,7 @@ from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 
 from edge_vis.engine.access import jaus_control
+from edge_vis.engine.control import EMERGENCY
 from edge_vis.engine.state import EngineState
 from edge_vis.engine.vehicle import Vehicle
 from edge_vis.jaus.address import JausAddress
@@ -87,7 +88,7 @@ class Views:
             notes=notes,
             holders=tuple(h for _a, h in sorted(vehicle.holders.items())),
             clock=vehicle.clock,
-            emergency=vehicle.estop is not None or 5 in vehicle.statuses.values(),
+            emergency=vehicle.estop is not None or EMERGENCY in vehicle.statuses.values(),
             emergency_operator=vehicle.estop.operator_id if vehicle.estop else "",
             emergency_reason=vehicle.estop.reason if vehicle.estop else "",
         )
