@@ -139,9 +139,7 @@ class Access:
         ctl = vehicle.controls.get(source)
         if ctl is not None:
             state.send_outgoing(source, ctl.on_status(status, now))
-        if vehicle.in_emergency():
-            for slot in vehicle.commands.values():
-                if slot.pending is not None and slot.pending.command.stop is not None:
-                    state.counters["commands_dropped"] += slot.clear()
+        if vehicle.in_emergency() and (dropped := vehicle.drop_motion()):
+            state.counters["commands_dropped"] += dropped
         if vehicle.state_name() != before:
             self._changed(vehicle, "status", now)

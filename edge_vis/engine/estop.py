@@ -173,9 +173,8 @@ class EmergencyStops:
         else:  # already set: deliver again to whoever did not confirm; keep the setter
             estop.authority = max(estop.authority, authority)
         state.counters["emergency_set"] += 1
-        for slot in vehicle.commands.values():  # nothing queued may move it afterwards
-            if slot.pending is not None and slot.pending.command.stop is not None:
-                state.counters["commands_dropped"] += slot.clear()
+        if dropped := vehicle.drop_motion():
+            state.counters["commands_dropped"] += dropped
         self._retarget(vehicle, now, reset=True)
         state.touch(vehicle)
         self.pump(vehicle, now)

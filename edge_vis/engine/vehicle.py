@@ -127,3 +127,9 @@ class Vehicle:
         """True when an emergency stop set through the relay is in force (until every
         component confirmed its clearing) or any component reports EMERGENCY or FAILURE."""
         return self.estop is not None or any(s in (4, 5) for s in self.statuses.values())
+
+    def drop_motion(self) -> int:
+        """Drop every queued motion command (nothing queued may move a vehicle in
+        emergency); returns how many were dropped."""
+        return sum(slot.clear() for slot in self.commands.values()
+                   if slot.pending is not None and slot.pending.command.stop is not None)
