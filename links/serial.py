@@ -247,7 +247,7 @@ class SerialLink(Link):
         if self._head_sent and frames:
             position, index = frames[0] - self._head_sent, 1
         while position < self._urgent_bytes and index < len(frames):
-            position += frames[index] if index else frames[0] - self._head_sent
+            position += frames[index]
             index += 1
         for packet in packets:
             data = frame(packet)
