@@ -17,6 +17,7 @@ clock is left alone.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Mapping
 from typing import Any
@@ -105,9 +106,8 @@ class Clocks:
         if note:
             log.warning("vehicle %s: %s", vehicle.vehicle_id, note)
             if vehicle.clock is not None:
-                vehicle.clock = ClockView(vehicle.clock.component, vehicle.clock.offset,
-                                          vehicle.clock.round_trip, vehicle.set_time_sent,
-                                          note)
+                vehicle.clock = dataclasses.replace(
+                    vehicle.clock, set_time_sent=vehicle.set_time_sent, note=note)
                 self._changed(vehicle, "clock", now)
 
     def on_time(self, vehicle: Vehicle, source: JausAddress, fields: Mapping[str, Any],
