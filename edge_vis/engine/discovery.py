@@ -36,6 +36,8 @@ log = logging.getLogger(__name__)
 CORE = "urn:jaus:jss:core:"
 MOBILITY = "urn:jaus:jss:mobility:"
 ENV = "urn:jaus:jss:environmentSensing:"
+#: the service liveness, status and the emergency stop all address
+MANAGEMENT = CORE + "Management"
 
 #: service URI -> the URI it inherits from (JSIDL ``inherits-from``; core v1.1,
 #: mobility v1.0, environment sensing v1.0, IOP's EnhancedAccessControl).

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from edge_vis.engine.control import EMERGENCY
-from edge_vis.engine.discovery import CORE
+from edge_vis.engine.discovery import MANAGEMENT
 from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.actions import EMERGENCY_CLASS, PRIORITY_SAFETY, EmergencyRequest, SendMessage
 
@@ -43,7 +43,6 @@ if TYPE_CHECKING:  # the vehicle holds an Estop: these import this module
 
 log = logging.getLogger(__name__)
 
-MANAGEMENT = CORE + "Management"
 PLATFORM_STATE = "urn:jaus:jss:iop:PlatformState"
 #: SetEmergency/ClearEmergency emergency_code: the only one defined
 STOP = 1

@@ -15,7 +15,7 @@ from __future__ import annotations
 import logging
 from typing import TYPE_CHECKING
 
-from edge_vis.engine.discovery import CORE
+from edge_vis.engine.discovery import CORE, MANAGEMENT
 from edge_vis.engine.state import Changed, EngineState
 from edge_vis.engine.vehicle import Vehicle
 
@@ -26,7 +26,6 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 LIVENESS = CORE + "Liveness"
-MANAGEMENT = CORE + "Management"
 #: Status is also queried every this many liveness periods on components with Liveness.
 STATUS_EVERY = 5
 
