@@ -623,11 +623,11 @@ class Router:
 
         A dict never shrinks as entries are deleted: the 20,000 slots a burst needed would
         stay allocated (and the memory around them fragmented) for as long as the relay runs.
+        (The deque of expiries needs no rebuild: it frees its blocks as they empty.)
         """
         seen = self._seen
         if self._seen_peak >= 4096 and len(seen) <= self._seen_peak // 8:
             self._seen = dict(seen)
-            self._seen_order = deque(self._seen_order)
             self._seen_peak = len(seen)
             self.compactions += 1
 
