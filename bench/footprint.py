@@ -43,7 +43,6 @@ import os
 import resource
 import select
 import socket
-import struct
 import subprocess
 import sys
 import tempfile
@@ -53,9 +52,11 @@ from collections import Counter
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from forwarded import TARGET, Sink, message  # bench/forwarded.py
+
 from edge_vis.catalogue import default_catalogue
 from edge_vis.jaus.address import JausAddress
-from edge_vis.jaus.transport import Packet, pack_datagram, unpack_datagram
+from edge_vis.jaus.transport import unpack_datagram
 
 RELAY_IP = "127.0.62.1"
 LISTENER_IP = "127.0.62.9"
@@ -160,9 +161,6 @@ FWD_IP = "127.0.63.1"
 SENDER_IP = "127.0.63.2"
 SINK_IP = "127.0.63.3"
 FWD_RELAY = JausAddress(200, 1, 1)
-FWD_SOURCE = JausAddress(42, 1, 1)
-FWD_TARGET = JausAddress(126, 1, 199)
-_STAMP = struct.Struct("<QI")
 BURST_WINDOW = 1024
 
 
@@ -206,7 +204,7 @@ def forwarder_main(in_port: int, out: str) -> None:
         if out.startswith("udp"):
             host, port = out.split("peers=")[1].split(":")
             peer = (host, int(port))
-        node.router.add_route(FWD_TARGET, "out", peer)  # type: ignore[arg-type]
+        node.router.add_route(TARGET, "out", peer)  # type: ignore[arg-type]
         print("ready", flush=True)
         await done
         await node.stop()
@@ -239,11 +237,6 @@ def forwarder_main(in_port: int, out: str) -> None:
     asyncio.run(run())
 
 
-def fwd_message(seq: int, run: int) -> bytes:
-    payload = b"\x05\x04" + _STAMP.pack(run, seq)  # 0x0405 SetWrenchEffort-sized
-    return pack_datagram([Packet(FWD_TARGET, FWD_SOURCE, payload, sequence=seq & 0xFFFF)])
-
-
 class Forwarder:
     """A forwarder process, its sink and the traffic this process sends it."""
 
@@ -255,23 +248,23 @@ class Forwarder:
         self.tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.tx.bind((SENDER_IP, 0))
         self.tx.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 1 << 22)
-        self.udp: socket.socket | None = None
-        self.master: int | None = None
-        self.tail = b""
+        udp: socket.socket | None = None
+        master: int | None = None
         if kind in ("serial", "bare"):
-            self.master, slave = os.openpty()
+            master, slave = os.openpty()
             tty.setraw(slave)
             out = f"serial://{os.ttyname(slave)}?baud=20000000&pace=0"
             if kind == "bare":
                 out = "bare+" + out
-            os.set_blocking(self.master, False)
+            os.set_blocking(master, False)
             self._slave = slave
         else:
-            self.udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            self.udp.bind((SINK_IP, 0))
-            self.udp.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 22)
-            self.udp.setblocking(False)
-            out = f"udp://{FWD_IP}:0?multicast=off&peers={SINK_IP}:{self.udp.getsockname()[1]}"
+            udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            udp.bind((SINK_IP, 0))
+            udp.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 22)
+            udp.setblocking(False)
+            out = f"udp://{FWD_IP}:0?multicast=off&peers={SINK_IP}:{udp.getsockname()[1]}"
+        self.sink = Sink(udp, master)
         self.proc = subprocess.Popen(
             [*wrapper, sys.executable, __file__, "--forwarder", str(self.in_port), out],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
@@ -287,35 +280,11 @@ class Forwarder:
         user, system = self.proc.stdout.readline().split()
         return float(user) + float(system)
 
-    def fileno(self) -> int:
-        return self.udp.fileno() if self.udp is not None else self.master  # type: ignore[return-value]
-
-    def count(self) -> int:
-        """Messages arrived at the sink since the last call (non-blocking)."""
-        n = 0
-        if self.udp is not None:
-            while True:
-                try:
-                    self.udp.recv(65535)
-                except BlockingIOError:
-                    return n
-                n += 1
-        while True:
-            try:
-                data = os.read(self.master, 65536)  # type: ignore[arg-type]
-            except (BlockingIOError, OSError):
-                return n
-            if not data:
-                return n
-            # DLE SOH + version 2 starts every frame; these payloads never contain it
-            n += (self.tail + data).count(b"\x10\x01\x02")
-            self.tail = data[-2:]
-
     def offer(self, rate: float, seconds: float) -> tuple[int, float]:
         """Send at ``rate`` for ``seconds``; return (delivered, forwarder CPU seconds)."""
         self.run += 1
         total = int(rate * seconds)
-        self.count()
+        self.sink.count()
         cpu0 = self.cpu()
         start = time.monotonic()
         sent = received = 0
@@ -323,11 +292,11 @@ class Forwarder:
             due = start + sent / rate
             wait = due - time.monotonic()
             if wait > 0:
-                ready, _, _ = select.select([self], [], [], wait)
+                ready, _, _ = select.select([self.sink], [], [], wait)
                 if ready:
-                    received += self.count()
+                    received += self.sink.count()
                 continue
-            self.tx.sendto(fwd_message(sent, self.run), (FWD_IP, self.in_port))
+            self.tx.sendto(message(sent, self.run), (FWD_IP, self.in_port))
             sent += 1
         received += self._settle(total - received)
         return received, self.cpu() - cpu0
@@ -337,15 +306,15 @@ class Forwarder:
         return (delivered, seconds). What is in flight after 1 s without progress counts
         as lost, and sending goes on."""
         self.run += 1
-        self.count()
+        self.sink.count()
         start = last = time.monotonic()
         sent = received = lost = 0
         while sent < total:
             while sent - received - lost < BURST_WINDOW and sent < total:
-                self.tx.sendto(fwd_message(sent, self.run), (FWD_IP, self.in_port))
+                self.tx.sendto(message(sent, self.run), (FWD_IP, self.in_port))
                 sent += 1
-            ready, _, _ = select.select([self], [], [], 0.2)
-            got = self.count() if ready else 0
+            ready, _, _ = select.select([self.sink], [], [], 0.2)
+            got = self.sink.count() if ready else 0
             received += got
             if got:
                 last = time.monotonic()
@@ -359,10 +328,10 @@ class Forwarder:
         """Collect what is still in flight (up to 1 s of silence)."""
         got = 0
         while got < missing:
-            ready, _, _ = select.select([self], [], [], 1.0)
+            ready, _, _ = select.select([self.sink], [], [], 1.0)
             if not ready:
                 break
-            got += self.count()
+            got += self.sink.count()
         return got
 
     def close(self) -> None:
@@ -370,10 +339,10 @@ class Forwarder:
         self.proc.stdin.close()
         self.proc.wait(10)
         self.tx.close()
-        if self.udp is not None:
-            self.udp.close()
-        if self.master is not None:
-            os.close(self.master)
+        if self.sink.udp is not None:
+            self.sink.udp.close()
+        if self.sink.fd is not None:
+            os.close(self.sink.fd)
             os.close(self._slave)
 
 

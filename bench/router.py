@@ -37,95 +37,27 @@ import resource
 import select
 import socket
 import statistics
-import struct
 import sys
 import time
 import tty
 
+from forwarded import TARGET, Sink, message  # bench/forwarded.py
+
 from edge_vis.jaus.address import JausAddress
-from edge_vis.jaus.serial_framing import SerialDeframer, SerialFrame, frame
-from edge_vis.jaus.transport import Packet, pack_datagram, unpack_datagram
+from edge_vis.jaus.serial_framing import frame
+from edge_vis.jaus.transport import unpack_datagram
 from edge_vis.routing.link import create_link
 from edge_vis.routing.router import Router
 from edge_vis.tools.testing import RouterNode
 
 RELAY = JausAddress(200, 1, 1)
-SOURCE = JausAddress(42, 1, 1)
-TARGET = JausAddress(126, 1, 199)
 FORWARDER = ("127.0.0.2", 0)
 SENDER_HOST = "127.0.0.3"
 SINK_HOST = "127.0.0.4"
-_STAMP = struct.Struct("<QI")
 WINDOW = 64
 
 
-def message(seq: int, stamp: int, destination: JausAddress = TARGET) -> bytes:
-    payload = b"\x05\x04" + _STAMP.pack(stamp, seq)  # 0x0405 SetWrenchEffort-sized
-    return pack_datagram([Packet(destination, SOURCE, payload, sequence=seq & 0xFFFF)])
-
-
-def stamp_of(payload: bytes) -> int:
-    return int(_STAMP.unpack_from(payload, 2)[0])
-
-
 # -- the traffic process ---------------------------------------------------------------
-class Sink:
-    """Receives forwarded messages from a UDP socket or a pty master."""
-
-    def __init__(self, udp: socket.socket | None, pty_fd: int | None) -> None:
-        self.udp = udp
-        self.fd = pty_fd
-        self.deframer = SerialDeframer()
-        self.tail = b""
-
-    def count(self) -> int:
-        """How many messages arrived (cheap: the sink must not be the bottleneck)."""
-        if self.udp is not None:
-            n = 0
-            while True:
-                try:
-                    self.udp.recv(65535)
-                except BlockingIOError:
-                    return n
-                n += 1
-        n = 0
-        while True:
-            try:
-                data = os.read(self.fd, 65536)  # type: ignore[arg-type]
-            except (BlockingIOError, OSError):
-                return n
-            if not data:
-                return n
-            # DLE SOH + version 2 starts every frame; these payloads never contain it
-            n += (self.tail + data).count(b"\x10\x01\x02")
-            self.tail = data[-2:]
-
-    def fileno(self) -> int:
-        return self.udp.fileno() if self.udp is not None else self.fd  # type: ignore[return-value]
-
-    def drain(self) -> list[int]:
-        """Send stamps of everything available now (non-blocking)."""
-        out = []
-        if self.udp is not None:
-            while True:
-                try:
-                    data = self.udp.recv(65535)
-                except BlockingIOError:
-                    return out
-                for p in unpack_datagram(data):
-                    out.append(stamp_of(p.payload))
-        while True:
-            try:
-                data = os.read(self.fd, 65536)  # type: ignore[arg-type]
-            except (BlockingIOError, OSError):
-                return out
-            if not data:
-                return out
-            for r in self.deframer.feed(data):
-                if isinstance(r, SerialFrame):
-                    out.append(stamp_of(r.packet.payload))
-
-
 def traffic(target: tuple[str, int], sink_port: int | None, pty_fd: int | None,
             count: int, rounds: int, rate: float, seconds: float,
             conn: mp.connection.Connection) -> None:

@@ -897,20 +897,22 @@ def load_jsidl(
     return parse_files(paths).messages(service_set)
 
 
-def profile_catalogue(jsidl: Iterable[str | Path]) -> Catalogue:
-    """The relay's catalogue: the default one plus the messages of a profile's
-    ``catalogue.jsidl`` files (the default itself when there are none).
+def profile_catalogue(jsidl: Iterable[str | Path], *, base: Catalogue | None = None,
+                      source: str = "profile JSIDL") -> Catalogue:
+    """The relay's catalogue: ``base`` (default: the default one) plus the messages of a
+    profile's ``catalogue.jsidl`` files (``base`` itself when there are none).
 
-    One function for ``edge-vis run`` and ``edge-vis check``, so both see the same
-    messages. Raises ConfigError naming a file that does not parse, PluginConflictError
-    for a code already taken by another definition.
+    One function for ``edge-vis run``, ``edge-vis check`` and the simulator's vehicles, so
+    all see the same messages; ``source`` names the files in error messages. Raises
+    ConfigError naming a file that does not parse, PluginConflictError for a code already
+    taken by another definition.
     """
     from edge_vis.catalogue import default_catalogue
 
-    catalogue = default_catalogue()
+    catalogue = base if base is not None else default_catalogue()
     files = list(jsidl)
     if not files:
         return catalogue
     extended = catalogue.copy()
-    extended.add(load_jsidl(files), source="profile JSIDL")
+    extended.add(load_jsidl(files), source=source)
     return extended

@@ -166,6 +166,16 @@ class _LinkState:
     def depth(self) -> int:
         return sum(len(q) for q in self.queues)
 
+    def cost(self, packet: Packet) -> int:
+        """Budget bytes ``packet`` takes: data size (payload + 14 header bytes) + framing."""
+        return len(packet.payload) + 14 + self.overhead
+
+    def refill(self, now: float, rate: float) -> None:
+        """Add the budget earned at ``rate`` bit/s since the last refill."""
+        if self.refilled is not None:
+            self.tokens = min(self.burst, self.tokens + (now - self.refilled) * rate / 8)
+        self.refilled = now
+
 
 @dataclass(slots=True)
 class _Pending:
@@ -613,11 +623,11 @@ class Router:
 
         A dict never shrinks as entries are deleted: the 20,000 slots a burst needed would
         stay allocated (and the memory around them fragmented) for as long as the relay runs.
+        (The deque of expiries needs no rebuild: it frees its blocks as they empty.)
         """
         seen = self._seen
         if self._seen_peak >= 4096 and len(seen) <= self._seen_peak // 8:
             self._seen = dict(seen)
-            self._seen_order = deque(self._seen_order)
             self._seen_peak = len(seen)
             self.compactions += 1
 
@@ -640,10 +650,9 @@ class Router:
             state.sent += len(packets)
             actions.append(SendPackets(link, peer, tuple(packets)))
             return
-        overhead = state.overhead
         queues = state.queues
         for p in packets:
-            cost = len(p.payload) + 14 + overhead
+            cost = state.cost(p)
             if state.latest_wins and (p.priority & 3) <= LATEST_WINS_MAX_PRIORITY:
                 self._supersede(state, peer, p)
             queues[p.priority & 3].append((peer, p, cost))
@@ -665,11 +674,8 @@ class Router:
             self.counters["dropped: unknown link"] += len(packets)
             return
         if state.bandwidth_bps is not None:
-            if state.refilled is not None:
-                state.tokens = min(state.burst, state.tokens
-                                   + (now - state.refilled) * state.bandwidth_bps / 8)
-            state.refilled = now
-            state.tokens -= sum(len(p.payload) + 14 + state.overhead for p in packets)
+            state.refill(now, state.bandwidth_bps)
+            state.tokens -= sum(state.cost(p) for p in packets)
         state.sent += len(packets)
         self.counters["sent urgently"] += len(packets)
         actions.append(SendPackets(link, peer, tuple(packets), urgent=True))
@@ -694,9 +700,7 @@ class Router:
             return
         rate = state.bandwidth_bps
         if rate is not None:
-            if state.refilled is not None:
-                state.tokens = min(state.burst, state.tokens + (now - state.refilled) * rate / 8)
-            state.refilled = now
+            state.refill(now, rate)
         batch: list[Packet] = []
         batch_peer: Peer | None = None
         queues = state.queues

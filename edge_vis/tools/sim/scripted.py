@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from edge_vis.catalogue import Catalogue, default_catalogue
+from edge_vis.catalogue import Catalogue
 from edge_vis.codec.types import BitField, FixedString, List, Record, VarString
 from edge_vis.errors import ConfigError, EncodeError, PluginError
 from edge_vis.jaus.address import JausAddress
@@ -112,15 +112,9 @@ UUV_HELLO = HelloSpec(message="VendorHello",
 
 def vehicle_catalogue(jsidl: Iterable[Path], base: Catalogue | None = None) -> Catalogue:
     """``base`` (default: the default catalogue) plus the messages of ``jsidl``."""
-    from edge_vis.catalogue.jsidl import load_jsidl
+    from edge_vis.catalogue.jsidl import profile_catalogue
 
-    catalogue = base if base is not None else default_catalogue()
-    files = list(jsidl)
-    if not files:
-        return catalogue
-    extended = catalogue.copy()
-    extended.add(load_jsidl(files), source="sim JSIDL")
-    return extended
+    return profile_catalogue(jsidl, base=base, source="sim JSIDL")
 
 
 def services_of(catalogue: Catalogue, names: Iterable[str]) -> tuple[str, ...]:
