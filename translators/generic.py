@@ -568,10 +568,8 @@ def _limits(field_type: Any) -> tuple[float | None, float | None, Any]:
     raw = getattr(field_type, "raw", field_type)
     if hasattr(field_type, "lower") and hasattr(field_type, "upper"):
         return field_type.lower, field_type.upper, None
-    if hasattr(raw, "bits") and hasattr(raw, "signed"):
-        span = 1 << raw.bits
-        low, high = (-(span // 2), span // 2 - 1) if raw.signed else (0, span - 1)
-        return low, high, _integer
+    if hasattr(raw, "bits") and hasattr(raw, "signed"):  # an integer: its own range
+        return raw.min, raw.max, _integer
     return None, None, None
 
 
