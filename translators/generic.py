@@ -73,6 +73,7 @@ from edge_vis.kit import (
     resolve_path,
     setting,
 )
+from edge_vis.kit.imagery import IMAGE_DATA, IMAGE_PRODUCT
 from edge_vis.kit.shapes import (
     MODULE,
     Member,
@@ -82,8 +83,6 @@ from edge_vis.kit.shapes import (
     idl_type,
     shape_of,
 )
-
-IMAGE_PRODUCT = "ImageProduct"
 
 
 def _non_empty(text: str) -> str | None:
@@ -441,7 +440,7 @@ class GenericTranslator(RuleTranslator):
         # instance attributes: this translator's declarations come from the profile
         self.report_rules = rules  # type: ignore[misc]
         self.command_rules = command_rules  # type: ignore[misc]
-        extra = ("ImageData",) if any(m.image is not None for m in mappings) else ()
+        extra = (IMAGE_DATA,) if any(m.image is not None for m in mappings) else ()
         for name, value in declarations(rules, command_rules, (), extra).items():
             setattr(self, name, value)
         self._by_message = {}
