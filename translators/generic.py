@@ -465,8 +465,8 @@ class GenericTranslator(RuleTranslator):
                                                f"chunks of <= {CHUNK_BYTES} bytes")
         if m.generic:
             def fields_of(jaus: Mapping[str, Any], m: GenericMapping = m) -> list[dict[str, Any]]:
-                return [{"name": dds, **generic_value(get_path(jaus, path))}
-                        for dds, path in m.fields.items() if get_path(jaus, path) is not None]
+                return [{"name": dds, **generic_value(value)} for dds, path in m.fields.items()
+                        if (value := get_path(jaus, path)) is not None]
 
             spec = {"message": Const(m.message),
                     "fields": Computed(fields_of,
