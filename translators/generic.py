@@ -73,6 +73,7 @@ from edge_vis.kit import (
     resolve_path,
     setting,
 )
+from edge_vis.kit.imagery import IMAGE_DATA, IMAGE_PRODUCT
 from edge_vis.kit.shapes import (
     MODULE,
     Member,
@@ -82,8 +83,6 @@ from edge_vis.kit.shapes import (
     idl_type,
     shape_of,
 )
-
-IMAGE_PRODUCT = "ImageProduct"
 
 
 def _non_empty(text: str) -> str | None:
@@ -441,7 +440,7 @@ class GenericTranslator(RuleTranslator):
         # instance attributes: this translator's declarations come from the profile
         self.report_rules = rules  # type: ignore[misc]
         self.command_rules = command_rules  # type: ignore[misc]
-        extra = ("ImageData",) if any(m.image is not None for m in mappings) else ()
+        extra = (IMAGE_DATA,) if any(m.image is not None for m in mappings) else ()
         for name, value in declarations(rules, command_rules, (), extra).items():
             setattr(self, name, value)
         self._by_message = {}
@@ -466,8 +465,8 @@ class GenericTranslator(RuleTranslator):
                                                f"chunks of <= {CHUNK_BYTES} bytes")
         if m.generic:
             def fields_of(jaus: Mapping[str, Any], m: GenericMapping = m) -> list[dict[str, Any]]:
-                return [{"name": dds, **generic_value(get_path(jaus, path))}
-                        for dds, path in m.fields.items() if get_path(jaus, path) is not None]
+                return [{"name": dds, **generic_value(value)} for dds, path in m.fields.items()
+                        if (value := get_path(jaus, path)) is not None]
 
             spec = {"message": Const(m.message),
                     "fields": Computed(fields_of,
@@ -568,10 +567,8 @@ def _limits(field_type: Any) -> tuple[float | None, float | None, Any]:
     raw = getattr(field_type, "raw", field_type)
     if hasattr(field_type, "lower") and hasattr(field_type, "upper"):
         return field_type.lower, field_type.upper, None
-    if hasattr(raw, "bits") and hasattr(raw, "signed"):
-        span = 1 << raw.bits
-        low, high = (-(span // 2), span // 2 - 1) if raw.signed else (0, span - 1)
-        return low, high, _integer
+    if hasattr(raw, "bits") and hasattr(raw, "signed"):  # an integer: its own range
+        return raw.min, raw.max, _integer
     return None, None, None
 
 

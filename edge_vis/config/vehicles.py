@@ -109,10 +109,8 @@ class VehicleDiscovery:
         if bool(self.hello) == self.passive:
             yield "hello", "give either hello = \"MESSAGE\" or passive = true"
         if self.passive:
-            for key in ("address_field", "vehicle_id_field", "name_field", "type_field",
-                        "services_field"):
-                if getattr(self, key):
-                    yield key, "only a hello has fields to read (passive = true)"
+            for key in self.hello_fields():
+                yield key, "only a hello has fields to read (passive = true)"
         if self.hello and self.messages:
             yield "messages", "only passive discovery takes messages"
 

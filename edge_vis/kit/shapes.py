@@ -96,8 +96,7 @@ def camel(name: str) -> str:
 
 
 def _int(raw: Int) -> str:
-    bits = 8 if raw.bits <= 8 else 16 if raw.bits <= 16 else 32 if raw.bits <= 32 else 64
-    return f"{'' if raw.signed else 'u'}int{bits}"
+    return f"{'' if raw.signed else 'u'}int{raw.bits}"  # Int is 8, 16, 32 or 64 bits
 
 
 def shape_of(field_type: object, type_name: str) -> Shape:
