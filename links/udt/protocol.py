@@ -24,6 +24,12 @@ relative to the segment (:meth:`Manifest.span`) and its RECEIPT only says "store
 sender then sends the plain manifest, which the receiver answers with ACCEPT(size), and
 the RECEIPT of that one carries the SHA-256 verdict on the whole file.
 
+Pull. The same exchange runs with the roles of the connection turned round when the
+receiver fetches: it connects to a vehicle's image server and sends FETCH (JSON: file
+name, optional segment); the server answers with the MANIFEST of that file and goes on as
+the sender above, or with REFUSE (NOT_FOUND) when it has no such file. One connection may
+carry any number of fetches, one after the other.
+
 Either side may send ERROR before closing when the other broke a rule (garbage, a frame
 out of place, data past the size).
 
@@ -91,6 +97,7 @@ class FrameType(IntEnum):
     ERROR = 6
     CHALLENGE = 7
     AUTH = 8
+    FETCH = 9
 
 
 MAX_PAYLOAD: dict[FrameType, int] = {
@@ -102,6 +109,7 @@ MAX_PAYLOAD: dict[FrameType, int] = {
     FrameType.ERROR: 4 * 1024,
     FrameType.CHALLENGE: 32,
     FrameType.AUTH: 32,
+    FrameType.FETCH: 4 * 1024,
 }
 MIN_PAYLOAD: dict[FrameType, int] = {
     FrameType.MANIFEST: 2,
@@ -112,6 +120,7 @@ MIN_PAYLOAD: dict[FrameType, int] = {
     FrameType.ERROR: 2,
     FrameType.CHALLENGE: 32,
     FrameType.AUTH: 32,
+    FrameType.FETCH: 2,
 }
 #: domain separation of the authentication tag
 AUTH_LABEL = b"edge-vis bulk manifest auth v1\x00"
@@ -134,6 +143,7 @@ class Reason(IntEnum):
     TIMEOUT = 10
     SHUTDOWN = 11
     UNAUTHENTICATED = 12
+    NOT_FOUND = 13
     UNKNOWN = 0xFFFF
 
     @classmethod
@@ -372,6 +382,25 @@ def transfer_id_for(vehicle_id: str, name: str, sha256: str) -> str:
     return hashlib.sha256(key).hexdigest()[:32]
 
 
+def fetch_payload(name: str, segment: tuple[int, int] | None = None) -> bytes:
+    """The FETCH payload asking for ``name`` (or one lane's ``segment`` of it)."""
+    data: dict[str, Any] = {"name": check_file_name(name)}
+    if segment is not None:
+        data["segment"] = list(_segment(list(segment)) or ())
+    return json.dumps(data, separators=(",", ":")).encode("utf-8")
+
+
+def parse_fetch(payload: bytes) -> tuple[str, tuple[int, int] | None]:
+    """``(name, segment)`` of a FETCH payload; a malformed one is a BAD_FRAME."""
+    try:
+        data = json.loads(payload.decode("utf-8"))
+        if not isinstance(data, dict) or set(data) - {"name", "segment"}:
+            raise ValueError("expected an object with name and optional segment")
+        return check_file_name(data.get("name")), _segment(data.get("segment"))
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise _Garbage(f"bad FETCH: {exc}") from exc
+
+
 # --------------------------------------------------------------------------- events
 
 
@@ -449,9 +478,26 @@ class ProtocolErrorDetected:
     reason: str
 
 
+@dataclass(frozen=True, slots=True)
+class FetchRequested:
+    """Image server: the peer asks for file ``name`` (one lane's ``segment`` of it, or all);
+    answer with ``send_manifest`` (the normal sending flow follows) or ``refuse_fetch``."""
+
+    name: str
+    segment: tuple[int, int] | None
+
+
+@dataclass(frozen=True, slots=True)
+class FetchRefused:
+    """Fetcher: the image server will not serve the file asked for."""
+
+    code: Reason
+    reason: str
+
+
 Event = (
     ManifestReceived | ManifestRejected | DataReceived | DataComplete | Accepted | Refused
-    | ReceiptReceived | PeerErrored | ProtocolErrorDetected
+    | ReceiptReceived | PeerErrored | ProtocolErrorDetected | FetchRequested | FetchRefused
 )
 
 
@@ -660,9 +706,22 @@ class ReceiverConnection(_Base):
     nonce: Callable[[], bytes] = field(default=lambda: secrets.token_bytes(32))
     _challenge: bytes = b""
     _manifest_bytes: bytes = b""
+    _fetching: bool = False
+
+    def request(self, name: str, segment: tuple[int, int] | None = None) -> None:
+        """Ask an image server for ``name`` (pull); its MANIFEST or a ``FetchRefused`` follows."""
+        if self.state is not State.AWAIT_MANIFEST:
+            raise BulkProtocolError(f"request() in state {self.state.value}")
+        self._out.append(encode_frame(FrameType.FETCH, fetch_payload(name, segment)))
+        self._fetching = True
 
     def _frame(self, ftype: FrameType, payload: bytes) -> list[Event]:
+        if ftype is FrameType.REFUSE and self.state is State.AWAIT_MANIFEST and self._fetching:
+            (code,) = struct.unpack_from(">H", payload)
+            self._fetching = False
+            return [FetchRefused(Reason.of(code), _text(payload[2:]))]
         if ftype is FrameType.MANIFEST and self.state is State.AWAIT_MANIFEST:
+            self._fetching = False
             try:
                 manifest = Manifest.from_json(payload)
             except ManifestError as exc:
@@ -793,8 +852,17 @@ class SenderConnection(_Base):
     def remaining(self) -> int:
         return 0 if self.manifest is None else self.manifest.length - self.offset
 
+    def refuse_fetch(self, code: Reason, reason: str) -> None:
+        """Image server: decline a ``FetchRequested``; the connection waits for the next."""
+        if self.state is not State.IDLE:
+            raise BulkProtocolError(f"refuse_fetch() in state {self.state.value}")
+        self._out.append(encode_frame(FrameType.REFUSE, _coded(code, reason)))
+
     def _frame(self, ftype: FrameType, payload: bytes) -> list[Event]:
         assert ftype is not FrameType.ERROR
+        if ftype is FrameType.FETCH and self.state is State.IDLE:
+            name, segment = parse_fetch(payload)
+            return [FetchRequested(name, segment)]
         if self.manifest is None:
             raise self._unexpected(ftype)
         tid = self.manifest.transfer_id

@@ -31,6 +31,7 @@ from links.udt.protocol import (
     Backoff,
     DataComplete,
     DataReceived,
+    FetchRefused,
     Manifest,
     ManifestReceived,
     ManifestRejected,
@@ -368,9 +369,7 @@ class BulkSender:
         keep = False
         try:
             try:
-                conn.send_manifest(manifest, time.monotonic())
-                _send_all(sock, conn.data_to_send())
-                answer = self._next_event(sock, conn)
+                answer = self._announce(sock, conn, manifest)
             except ConnectionLost:
                 if not reused:
                     raise
@@ -378,40 +377,60 @@ class BulkSender:
                 _close(sock)
                 sock = _connect(self.address, self.connect_timeout, self.max_rate_bps)
                 conn = SenderConnection(idle_timeout=self.idle_timeout, keys=self.keys)
-                conn.send_manifest(manifest, time.monotonic())
-                _send_all(sock, conn.data_to_send())
-                answer = self._next_event(sock, conn)
-            watchdog = _Watchdog(sock, self.stall_timeout)
-            if isinstance(answer, Refused):
-                keep = True
-                if answer.code in self.retry_refusals:
-                    log.info("%s refused %s for now: %s", self.target, manifest.name, answer.reason)
-                    return None
-                return TransferResult(False, answer.reason, answer.code)
-            if not isinstance(answer, Accepted):
-                return self._ended(answer)
-            offsets.append(answer.offset)
-            if answer.offset:
-                log.info("resuming %s at byte %d of %d", manifest.name, answer.offset,
-                         manifest.size)
-            try:
-                self._stream(sock, conn, path, answer.offset, watchdog)
-            except ConnectionLost:
-                # The receiver may have said why before closing.
-                return self._reason_after_drop(sock, conn)
-            receipt = self._next_event(sock, conn, watchdog=watchdog)
-            if isinstance(receipt, ReceiptReceived):
-                keep = True
-                if self.progress and receipt.ok:
-                    self.progress(manifest.length, manifest.length)
-                return TransferResult(receipt.ok, receipt.reason or "SHA-256 verified",
-                                      None if receipt.ok else Reason.HASH_MISMATCH)
-            return self._ended(receipt)
+                answer = self._announce(sock, conn, manifest)
+            result, keep = self._exchange(sock, conn, path, manifest, answer, offsets)
+            return result
         finally:
             if keep and conn.state is State.IDLE and not self.stop.is_set():
                 self._idle = (sock, conn)
             else:
                 _close(sock)
+
+    def _announce(self, sock: Any, conn: SenderConnection, manifest: Manifest) -> Any:
+        conn.send_manifest(manifest, time.monotonic())
+        _send_all(sock, conn.data_to_send())
+        return self._next_event(sock, conn)
+
+    def serve(self, sock: Any, conn: SenderConnection, path: Path, manifest: Manifest
+              ) -> TransferResult | int | None:
+        """Send ``path`` on a connection the peer opened (an image server answering a FETCH).
+
+        One attempt: a result ends the transfer, an int is the bytes reached before a drop,
+        None a refusal to retry. The connection stays open for the peer's next request.
+        """
+        self._pending_events.clear()
+        answer = self._announce(sock, conn, manifest)
+        result, _keep = self._exchange(sock, conn, path, manifest, answer, [])
+        return result
+
+    def _exchange(self, sock: Any, conn: SenderConnection, path: Path, manifest: Manifest,
+                  answer: Any, offsets: list[int]) -> tuple[TransferResult | int | None, bool]:
+        """The rest of one attempt after the manifest's answer; True: the connection is
+        idle and reusable."""
+        watchdog = _Watchdog(sock, self.stall_timeout)
+        if isinstance(answer, Refused):
+            if answer.code in self.retry_refusals:
+                log.info("%s refused %s for now: %s", self.target, manifest.name, answer.reason)
+                return None, True
+            return TransferResult(False, answer.reason, answer.code), True
+        if not isinstance(answer, Accepted):
+            return self._ended(answer), False
+        offsets.append(answer.offset)
+        if answer.offset:
+            log.info("resuming %s at byte %d of %d", manifest.name, answer.offset,
+                     manifest.size)
+        try:
+            self._stream(sock, conn, path, answer.offset, watchdog)
+        except ConnectionLost:
+            # The receiver may have said why before closing.
+            return self._reason_after_drop(sock, conn), False
+        receipt = self._next_event(sock, conn, watchdog=watchdog)
+        if isinstance(receipt, ReceiptReceived):
+            if self.progress and receipt.ok:
+                self.progress(manifest.length, manifest.length)
+            return TransferResult(receipt.ok, receipt.reason or "SHA-256 verified",
+                                  None if receipt.ok else Reason.HASH_MISMATCH), True
+        return self._ended(receipt), False
 
     def _stream(self, sock: Any, conn: SenderConnection, path: Path, offset: int,
                 watchdog: _Watchdog) -> None:
@@ -496,6 +515,37 @@ class BulkSender:
 
 # --------------------------------------------------------------------------- receiver
 
+
+@dataclass(frozen=True, slots=True)
+class FetchRequest:
+    """What to pull from an image server, and what the announcement said it must be."""
+
+    name: str
+    sha256: str
+    size: int | None = None
+    segment: tuple[int, int] | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class FetchOutcome:
+    """How one fetch ended: ``verified``, ``stored`` (a lane segment), ``mismatch`` (refused:
+    not what was announced, or data failing the hash), ``refused``, ``not_found``, ``lost``."""
+
+    state: str
+    reason: str = ""
+
+
+def _mismatch(expect: FetchRequest | None, m: Manifest) -> str:
+    """Why the server's manifest is not the announced image ("" when it is)."""
+    if expect is None:
+        return ""
+    if m.sha256 != expect.sha256:
+        return (f"SHA-256 mismatch: announced {expect.sha256[:16]}..., the image server "
+                f"offers {m.sha256[:16]}... for {m.name}")
+    if expect.size is not None and m.size != expect.size:
+        return f"size mismatch: announced {expect.size} bytes, the image server offers {m.size}"
+    return ""
+
 VerifiedFn = Callable[[Manifest, Path], None]
 StatusFn = Callable[[dict[str, Any]], None]
 
@@ -534,6 +584,7 @@ class BulkReceiver:
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._local = threading.local()
+        self._cut: set[int] = set()  # ids of sockets their serving thread must close
         self.counters = {"connections": 0, "protocol_errors": 0, "refused": 0, "verified": 0,
                          "unauthenticated": 0}
 
@@ -568,11 +619,14 @@ class BulkReceiver:
         self.stop()
 
     def drop_connections(self) -> int:
-        """Close every open connection at once (partial data is kept); return how many."""
+        """Cut every open connection (partial data is kept); return how many.
+
+        Each connection's own thread closes its socket within one receive timeout: closing
+        a UDT socket under a thread blocked in ``recv`` breaks udt4py's call.
+        """
         with self._lock:
-            conns = list(self._conns.values())
-        for sock in conns:
-            _close(sock)
+            conns = list(self._conns)
+            self._cut.update(conns)
         return len(conns)
 
     def stop(self) -> None:
@@ -629,16 +683,40 @@ class BulkReceiver:
             log.exception("status callback failed")
 
     def _serve(self, sock: Any, peer: str) -> None:
+        try:
+            self._run_connection(sock, peer, None)
+        finally:
+            _close(sock)
+
+    def fetch(self, sock: Any, peer: str, request: FetchRequest) -> FetchOutcome:
+        """Pull one file (or lane segment) on ``sock``, a connection to an image server.
+
+        The server's manifest must match the announced SHA-256 and size, or it is refused
+        with that reason. The socket stays open for the next request unless the outcome
+        says the connection was lost; the caller closes it.
+        """
+        return self._run_connection(sock, peer, request)
+
+    def _run_connection(self, sock: Any, peer: str, request: FetchRequest | None
+                        ) -> FetchOutcome:
         udt = udt4py()
         with self._lock:
             self._conns[id(sock)] = sock
         self._local.sock = sock
+        self._local.outcome = None
+        self._local.expect = request
         sock.UDT_RCVTIMEO = POLL_MS
         conn = ReceiverConnection(idle_timeout=self.idle_timeout, keys=self.keys)
         buf = bytearray(DATA_CHUNK)
         current: Manifest | None = None
+        lost = FetchOutcome("lost", "connection closed")
         try:
+            if request is not None:
+                conn.request(request.name, request.segment)
+                _send_all(sock, conn.data_to_send())
             while not self._stop.is_set():
+                if id(sock) in self._cut:
+                    return FetchOutcome("lost", "connection cut")
                 try:
                     n = sock.recv(buf)
                 except udt.UDTException as exc:
@@ -646,7 +724,7 @@ class BulkReceiver:
                         idle = conn.state is State.AWAIT_MANIFEST
                         log.log(logging.DEBUG if idle else logging.INFO,
                                 "connection from %s ended: %s", peer, exc)
-                        return
+                        return FetchOutcome("lost", str(exc))
                     n = 0
                 now = time.monotonic()
                 events = conn.receive_data(bytes(buf[:n]), now) if n else conn.handle_timer(now)
@@ -657,11 +735,15 @@ class BulkReceiver:
                     _send_all(sock, out)
                 if conn.state is State.CLOSED:
                     time.sleep(0.05)  # let UDT deliver the ERROR frame before closing
-                    return
+                    return self._local.outcome or FetchOutcome("lost", "protocol error")
+                if request is not None and self._local.outcome is not None:
+                    return self._local.outcome  # type: ignore[no-any-return]
             conn.close_with_error(Reason.SHUTDOWN, "receiver shutting down")
             _send_all(sock, conn.data_to_send())
+            return FetchOutcome("lost", "stopped")
         except ConnectionLost as exc:
             log.info("connection from %s lost: %s", peer, exc)
+            return lost
         finally:
             if current is not None:
                 self._release(current, sock)
@@ -670,7 +752,10 @@ class BulkReceiver:
                     self._status(current, "interrupted", entry.held)
             with self._lock:
                 self._conns.pop(id(sock), None)
-            _close(sock)
+                self._cut.discard(id(sock))
+
+    def _outcome(self, state: str, reason: str = "") -> None:
+        self._local.outcome = FetchOutcome(state, reason)
 
     @staticmethod
     def _claim_key(m: Manifest) -> tuple[str, int | None]:
@@ -691,7 +776,8 @@ class BulkReceiver:
         if old is None or old is self._local.sock:
             return
         log.info("transfer %s: new connection from %s replaces a stale one", m.transfer_id, peer)
-        _close(old)
+        with self._lock:
+            self._cut.add(id(old))
         deadline = time.monotonic() + 2.0
         while time.monotonic() < deadline:
             with self._lock:
@@ -707,6 +793,14 @@ class BulkReceiver:
                 current: Manifest | None) -> Manifest | None:
         if isinstance(event, ManifestReceived):
             m = event.manifest
+            wrong = _mismatch(self._local.expect, m)
+            if wrong:
+                self.counters["refused"] += 1
+                log.warning("refused %s from %s: %s", m.name, peer, wrong)
+                conn.refuse(Reason.HASH_MISMATCH, wrong)
+                self._status(m, "refused", 0, wrong)
+                self._outcome("mismatch", wrong)
+                return None
             self._take_over(m, peer)
             try:
                 offset = self.spool.begin(m)
@@ -715,6 +809,7 @@ class BulkReceiver:
                 log.warning("refused %s from %s (%s): %s", m.name, peer, exc.code.name, exc.reason)
                 conn.refuse(exc.code, exc.reason)
                 self._status(m, "refused", 0, exc.reason)
+                self._outcome("refused", exc.reason)
                 return None
             with self._lock:
                 self._owners[self._claim_key(m)] = self._local.sock
@@ -740,6 +835,7 @@ class BulkReceiver:
                 self._release(m, sock)
                 conn.send_receipt(True, "", f"segment {m.segment[0] + 1}/{m.segment[1]} stored")
                 self._status(m, "active", self._held(m))
+                self._outcome("stored")
                 return None
             try:
                 path = self.spool.complete(m)
@@ -748,12 +844,14 @@ class BulkReceiver:
                 self._release(m, sock)
                 conn.send_receipt(False, "", exc.reason)
                 self._status(m, "failed", m.size, exc.reason)
+                self._outcome("mismatch", exc.reason)
                 return None
             self._release(m, sock)
             conn.send_receipt(True, m.sha256)
             self.counters["verified"] += 1
             log.info("verified %s from %s (sha256 %s...)", m.name, m.vehicle_id, m.sha256[:12])
             self._status(m, "verified", m.size)
+            self._outcome("verified")
             if self.on_verified is not None:
                 try:
                     self.on_verified(m, path)
@@ -769,6 +867,11 @@ class BulkReceiver:
         if isinstance(event, ProtocolErrorDetected):
             self.counters["protocol_errors"] += 1
             log.warning("closing connection from %s (%s): %s", peer, event.code.name, event.reason)
+            return current
+        if isinstance(event, FetchRefused):
+            log.info("%s will not serve %s: %s", peer, self._local.expect.name, event.reason)
+            self._outcome("not_found" if event.code is Reason.NOT_FOUND else "refused",
+                          event.reason)
             return current
         if isinstance(event, PeerErrored):
             log.info("%s closed with %s: %s", peer, event.code.name, event.reason)
