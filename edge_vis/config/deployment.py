@@ -274,6 +274,14 @@ class BulkProfile:
     forward_lanes: int = setting(1, ge=1, le=16)
     keys: Path | None = None
     publish_data: bool = True
+    #: vehicle id -> HOST:PORT of its image server (``serve-images``); "*" for any other.
+    #: An image such a vehicle announces is fetched from there.
+    sources: Mapping[str, str] = setting(factory=dict, check=_host_port)
+    #: which announced image to fetch first
+    fetch_priority: str = setting("confidence", choices=("confidence", "oldest", "newest"))
+    #: bit/s the radio gives bulk data and JAUS together (0: no budget); fetches keep to
+    #: what the relay's JAUS traffic leaves of it
+    fetch_budget: int = setting(0, ge=0, unit="bit/s")
 
 
 @dataclass(frozen=True, slots=True)

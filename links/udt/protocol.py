@@ -382,21 +382,29 @@ def transfer_id_for(vehicle_id: str, name: str, sha256: str) -> str:
     return hashlib.sha256(key).hexdigest()[:32]
 
 
-def fetch_payload(name: str, segment: tuple[int, int] | None = None) -> bytes:
-    """The FETCH payload asking for ``name`` (or one lane's ``segment`` of it)."""
+def fetch_payload(name: str, segment: tuple[int, int] | None = None,
+                  rate_bps: int | None = None) -> bytes:
+    """The FETCH payload asking for ``name`` (or one lane's ``segment`` of it), to be sent
+    at most at ``rate_bps`` (the fetcher's share of the link budget)."""
     data: dict[str, Any] = {"name": check_file_name(name)}
     if segment is not None:
         data["segment"] = list(_segment(list(segment)) or ())
+    if rate_bps:
+        data["rate"] = int(rate_bps)
     return json.dumps(data, separators=(",", ":")).encode("utf-8")
 
 
-def parse_fetch(payload: bytes) -> tuple[str, tuple[int, int] | None]:
-    """``(name, segment)`` of a FETCH payload; a malformed one is a BAD_FRAME."""
+def parse_fetch(payload: bytes) -> tuple[str, tuple[int, int] | None, int | None]:
+    """``(name, segment, rate_bps)`` of a FETCH payload; a malformed one is a BAD_FRAME."""
     try:
         data = json.loads(payload.decode("utf-8"))
-        if not isinstance(data, dict) or set(data) - {"name", "segment"}:
-            raise ValueError("expected an object with name and optional segment")
-        return check_file_name(data.get("name")), _segment(data.get("segment"))
+        if not isinstance(data, dict) or set(data) - {"name", "segment", "rate"}:
+            raise ValueError("expected an object with name, optional segment and rate")
+        rate = data.get("rate")
+        if rate is not None and (isinstance(rate, bool) or not isinstance(rate, int)
+                                 or rate <= 0):
+            raise ValueError("rate must be a positive integer (bit/s)")
+        return check_file_name(data.get("name")), _segment(data.get("segment")), rate
     except (UnicodeDecodeError, ValueError) as exc:
         raise _Garbage(f"bad FETCH: {exc}") from exc
 
@@ -485,6 +493,7 @@ class FetchRequested:
 
     name: str
     segment: tuple[int, int] | None
+    rate_bps: int | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -708,11 +717,12 @@ class ReceiverConnection(_Base):
     _manifest_bytes: bytes = b""
     _fetching: bool = False
 
-    def request(self, name: str, segment: tuple[int, int] | None = None) -> None:
+    def request(self, name: str, segment: tuple[int, int] | None = None,
+                rate_bps: int | None = None) -> None:
         """Ask an image server for ``name`` (pull); its MANIFEST or a ``FetchRefused`` follows."""
         if self.state is not State.AWAIT_MANIFEST:
             raise BulkProtocolError(f"request() in state {self.state.value}")
-        self._out.append(encode_frame(FrameType.FETCH, fetch_payload(name, segment)))
+        self._out.append(encode_frame(FrameType.FETCH, fetch_payload(name, segment, rate_bps)))
         self._fetching = True
 
     def _frame(self, ftype: FrameType, payload: bytes) -> list[Event]:
@@ -861,8 +871,7 @@ class SenderConnection(_Base):
     def _frame(self, ftype: FrameType, payload: bytes) -> list[Event]:
         assert ftype is not FrameType.ERROR
         if ftype is FrameType.FETCH and self.state is State.IDLE:
-            name, segment = parse_fetch(payload)
-            return [FetchRequested(name, segment)]
+            return [FetchRequested(*parse_fetch(payload))]
         if self.manifest is None:
             raise self._unexpected(ftype)
         tid = self.manifest.transfer_id

@@ -524,6 +524,7 @@ class FetchRequest:
     sha256: str
     size: int | None = None
     segment: tuple[int, int] | None = None
+    rate_bps: int | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -678,6 +679,8 @@ class BulkReceiver:
                 "bytes_received": offset,
                 "size": manifest.size,
                 "detail": detail,
+                "sha256": manifest.sha256,
+                "manifest": manifest,
             })
         except Exception:  # a status consumer must not break a transfer
             log.exception("status callback failed")
@@ -712,7 +715,7 @@ class BulkReceiver:
         lost = FetchOutcome("lost", "connection closed")
         try:
             if request is not None:
-                conn.request(request.name, request.segment)
+                conn.request(request.name, request.segment, request.rate_bps)
                 _send_all(sock, conn.data_to_send())
             while not self._stop.is_set():
                 if id(sock) in self._cut:
