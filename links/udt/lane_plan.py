@@ -4,8 +4,8 @@ UDT reads random radio loss as congestion, so one connection settles far below a
 link's rate; parallel lanes each settle there and add up. How many pay off depends on
 the loss and delay of that radio, which nobody configuring a relay knows. So the plan
 climbs: it starts at ``start`` lanes, and after each file it compares that file's
-goodput with the best seen at other lane counts - more lanes while they help by at least
-``gain``, fewer when the last step made things worse. Files too small to split
+goodput with the best seen at other lane counts - one more lane while each added lane
+raised goodput by at least ``gain``, one fewer when the last one did not. Files too small to split
 (``min_lane_bytes`` per lane) go on one lane and teach nothing.
 """
 
@@ -44,8 +44,8 @@ class LanePlan:
         rate = size / seconds
         self.seen[lanes] = max(rate, self.seen.get(lanes, 0.0))
         up, down = self.seen.get(lanes + 1), self.seen.get(lanes - 1)
-        if down is not None and down > rate * (1 + self.gain):
-            self.current = lanes - 1  # the last step up did not pay: go back
+        if down is not None and rate < down * (1 + self.gain):
+            self.current = lanes - 1  # the last lane added did not pay: go back
         elif up is None and lanes < self.maximum and (down is None or
                                                       rate > down * (1 + self.gain)):
             self.current = lanes + 1  # still climbing: try one more
