@@ -22,6 +22,7 @@ from links.udt.transfer import (
     FetchRequest,
     _close,
     _connect,
+    _pending,
 )
 
 log = logging.getLogger(__name__)
@@ -152,6 +153,10 @@ class Puller:
         except ConnectionLost as exc:
             return FetchOutcome("lost", str(exc))
         try:
-            return self.receiver.fetch(sock, f"{host}:{port}", request)
+            outcome = self.receiver.fetch(sock, f"{host}:{port}", request)
+            deadline = time.monotonic() + 1.0
+            while outcome.state != "lost" and _pending(sock) and time.monotonic() < deadline:
+                time.sleep(0.01)  # let the receipt reach the vehicle before closing (no linger)
+            return outcome
         finally:
             _close(sock)

@@ -171,7 +171,7 @@ def test_the_fetch_keeps_to_the_budget_left_by_jaus_traffic(tmp_path: Path, make
 
 def test_queue_fetches_the_most_confident_image_first(tmp_path: Path, make_file):
     low, low_content = make_file(100_000, "atr-1.png", seed=1)
-    high, high_content = make_file(100_000, "atr-2.png", seed=2)
+    _, high_content = make_file(100_000, "atr-2.png", seed=2)
     bus = Bus()
     port = free_udp_port()
     relay = service(tmp_path, bus, ("127.0.0.1", port))
