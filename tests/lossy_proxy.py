@@ -33,7 +33,7 @@ import time
 from collections import Counter
 from dataclasses import dataclass, field
 
-MAX_CLIENTS = 64
+MAX_CLIENTS = 256
 MAX_SCHEDULED = 20000
 
 

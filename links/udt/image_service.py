@@ -86,7 +86,7 @@ def send_image(
     manifest: Manifest | None = None,
     stop: threading.Event | None = None,
     stall_timeout: float = 10.0,
-    lanes: int = 1,
+    lanes: int = 0,
     keys: Mapping[str, bytes] | None = None,
 ) -> TransferResult:
     """Send one file and wait for the receipt; ``result.ok`` only if the hash was confirmed.
@@ -125,7 +125,7 @@ class ImageService:
         max_rate_bps: int | None = None,
         idle_timeout: float = 30.0,
         forward_backoff: Backoff | None = None,
-        forward_lanes: int = 1,
+        forward_lanes: int = 0,
         keys: Mapping[str, bytes] | None = None,
         sources: Mapping[str, str | tuple[str, int]] | None = None,
         fetch_priority: Priority = "confidence",

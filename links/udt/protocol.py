@@ -83,6 +83,9 @@ MAX_FILE_SIZE = 1 << 40
 DATA_CHUNK = 1 << 20
 """Largest DATA payload, and the size senders use."""
 MAX_LANES = 16
+#: most segments a file is cut into; lanes take them one after another, so a lane that
+#: runs faster takes more of them and no lane is left holding a long tail
+MAX_SEGMENTS = 128
 SEGMENT_ALIGN = 64 * 1024
 
 
@@ -328,8 +331,9 @@ def _segment(value: object) -> tuple[int, int] | None:
         return None
     if (not isinstance(value, list) or len(value) != 2
             or not all(isinstance(v, int) and not isinstance(v, bool) for v in value)
-            or not 1 <= value[1] <= MAX_LANES or not 0 <= value[0] < value[1]):
-        raise ManifestError(f"manifest.segment must be [index, count] with count 1..{MAX_LANES}")
+            or not 1 <= value[1] <= MAX_SEGMENTS or not 0 <= value[0] < value[1]):
+        raise ManifestError(
+            f"manifest.segment must be [index, count] with count 1..{MAX_SEGMENTS}")
     return value[0], value[1]
 
 

@@ -19,11 +19,13 @@ import logging
 import threading
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from edge_vis.errors import LinkError
+from links.udt.lane_plan import segments_for
+from links.udt.lane_run import LaneRun
 from links.udt.protocol import (
     DATA_CHUNK,
     MAX_LANES,
@@ -50,8 +52,8 @@ log = logging.getLogger(__name__)
 
 POLL_MS = 250
 """Receive timeout on every socket, so threads notice ``stop()`` within this time."""
-MIN_LANE_BYTES = 1 << 20
-"""Smallest segment worth its own connection: a lane pays a UDT handshake and slow start."""
+PACED_CHUNK = 64 * 1024
+"""DATA payload size while a shared budget paces the lanes (finer steps, smaller bursts)."""
 SNDBUF_MIN = 256 * 1024
 SNDBUF_MAX = 12 * 1024 * 1024
 
@@ -213,10 +215,17 @@ class BulkSender:
         stall_timeout: float = 10.0,
         lanes: int = 1,
         keys: Mapping[str, bytes] | None = None,
+        pace: Callable[[int], float] | None = None,
     ) -> None:
-        if not 1 <= lanes <= MAX_LANES:
-            raise ValueError(f"lanes must be 1..{MAX_LANES}")
+        if not 0 <= lanes <= MAX_LANES:
+            raise ValueError(f"lanes must be 0 (adapt) or 1..{MAX_LANES}")
         self.lanes = lanes
+        #: seconds to wait before handing n more bytes to UDT (a budget shared by lanes)
+        self.pace = pace
+        #: the lane controller's decisions in the last adaptive transfer (time, lanes, B/s)
+        self.lane_history: list[tuple[float, int, float]] = []
+        #: told how long each manifest waited for its answer (the lane controller's signal)
+        self.on_round_trip: Callable[[float], None] | None = None
         self.keys = keys  # vehicle id -> pre-shared key, to answer a receiver's challenge
         self.address = address
         self.max_rate_bps = max_rate_bps
@@ -238,55 +247,50 @@ class BulkSender:
     def send_file(self, path: str | Path, manifest: Manifest) -> TransferResult:
         """Send ``path`` as described by ``manifest``; return once the receipt says so.
 
-        With ``lanes`` > 1 and a file of at least ``MIN_LANE_BYTES`` per lane, the file
-        goes as that many segments on parallel connections (each with its share of the
-        rate budget), then the whole-file manifest asks for the verdict.
+        With ``lanes`` other than 1 and a file of several segments (:func:`segments_for`),
+        the segments go on parallel connections, each lane taking the next segment when
+        it is done with one; ``lanes`` = 0 lets a :class:`LaneController` pick and adapt
+        the number of lanes from the goodput it measures. Then the whole-file manifest
+        asks for the verdict.
         """
-        lanes = min(self.lanes, max(1, manifest.size // MIN_LANE_BYTES))
-        if lanes > 1 and manifest.segment is None:
-            return self._send_lanes(Path(path), manifest, lanes)
+        if self.lanes != 1 and manifest.segment is None:
+            count = segments_for(manifest.size)
+            if count > 1:
+                return self._send_lanes(Path(path), manifest, count)
         return self._send_one(Path(path), manifest)
 
-    def _send_lanes(self, path: Path, manifest: Manifest, lanes: int) -> TransferResult:
-        done = [0] * lanes
-        results: list[TransferResult | None] = [None] * lanes
-        lock = threading.Lock()
-
-        def lane_progress(index: int) -> ProgressFn:
-            def report(value: int, _total: int) -> None:
-                with lock:
-                    done[index] = value
-                    total = sum(done)
-                if self.progress:
-                    self.progress(total, manifest.size)
-            return report
-
-        def run(index: int) -> None:
-            with BulkSender(
-                self.address,
-                max_rate_bps=None if not self.max_rate_bps else self.max_rate_bps // lanes,
+    def _send_lanes(self, path: Path, manifest: Manifest, count: int) -> TransferResult:
+        def make_sender(progress: ProgressFn, pace: Callable[[int], float] | None,
+                        stop: threading.Event) -> BulkSender:
+            return BulkSender(
+                self.address, max_rate_bps=self.max_rate_bps,
                 backoff=Backoff(self.backoff.initial, self.backoff.factor, self.backoff.maximum,
                                 self.backoff.jitter),
                 connect_timeout=self.connect_timeout, idle_timeout=self.idle_timeout,
                 give_up_after=self.give_up_after, retry_refusals=self.retry_refusals,
-                stop=self.stop, progress=lane_progress(index), stall_timeout=self.stall_timeout,
-            ) as lane:
-                results[index] = lane.send_file(path, replace(manifest, segment=(index, lanes)))
+                stop=stop, progress=progress, stall_timeout=self.stall_timeout,
+                keys=self.keys, pace=pace)
 
-        threads = [threading.Thread(target=run, args=(i,), name=f"udt-lane-{i}", daemon=True)
-                   for i in range(lanes)]
-        for t in threads:
-            t.start()
-        for t in threads:
-            t.join()
-        attempts = sum(r.attempts for r in results if r is not None)
-        offsets = tuple(o for r in results if r is not None for o in r.resumed_from)
-        for r in results:
-            if r is None or not r.ok:
-                reason = "lane did not finish" if r is None else r.reason
-                return TransferResult(False, reason, None if r is None else r.code, attempts,
-                                      offsets)
-        final = self._send_one(path, manifest)
+        run = LaneRun(make_sender, self.lanes, self.max_rate_bps, self.stop, self.progress)
+        failed, idle = run.send(path, manifest, count)
+        if run.control is not None:
+            self.lane_history = list(run.control.history)
+        # connections opened: one per lane and one per reconnection
+        attempts = run.started + sum(r.attempts - 1 for r in run.results)
+        offsets = tuple(o for r in run.results for o in r.resumed_from if o)
+        try:
+            if failed is not None:
+                return TransferResult(False, failed.reason, failed.code, attempts, offsets)
+            # The whole-file manifest on a lane's open connection: no new handshake.
+            closer = idle.pop() if idle else self
+            final = closer._send_one(path, manifest)
+        finally:
+            for sender in idle:
+                sender.close()
+        if closer is not self:
+            closer.close()
+        if final.ok and self.progress:
+            self.progress(manifest.size, manifest.size)
         return TransferResult(final.ok, final.reason, final.code, attempts + final.attempts,
                               offsets + final.resumed_from)
 
@@ -387,9 +391,13 @@ class BulkSender:
                 _close(sock)
 
     def _announce(self, sock: Any, conn: SenderConnection, manifest: Manifest) -> Any:
-        conn.send_manifest(manifest, time.monotonic())
+        sent = time.monotonic()
+        conn.send_manifest(manifest, sent)
         _send_all(sock, conn.data_to_send())
-        return self._next_event(sock, conn)
+        answer = self._next_event(sock, conn)
+        if self.on_round_trip is not None and isinstance(answer, Accepted):
+            self.on_round_trip(time.monotonic() - sent)
+        return answer
 
     def serve(self, sock: Any, conn: SenderConnection, path: Path, manifest: Manifest
               ) -> TransferResult | int | None:
@@ -442,9 +450,11 @@ class BulkSender:
             while conn.state is State.SENDING:
                 if self.stop.is_set():
                     raise ConnectionLost("stopped")
-                chunk = fh.read(min(DATA_CHUNK, conn.remaining))
+                chunk = fh.read(min(PACED_CHUNK if self.pace else DATA_CHUNK, conn.remaining))
                 if not chunk:
                     raise LinkError(f"{path} is shorter than its manifest says ({total} bytes)")
+                if self.pace is not None and self.stop.wait(self.pace(len(chunk))):
+                    raise ConnectionLost("stopped")
                 conn.send_data(chunk, time.monotonic())
                 _send_all(sock, conn.data_to_send(), watchdog)
                 if self.progress:
@@ -899,7 +909,7 @@ class Forwarder:
         max_rate_bps: int | None = None,
         backoff: Backoff | None = None,
         connect_timeout: float = 1.0,
-        lanes: int = 1,
+        lanes: int = 0,
         keys: Mapping[str, bytes] | None = None,
     ) -> None:
         self.spool = spool
