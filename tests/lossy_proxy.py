@@ -23,15 +23,19 @@ Usage::
 
 from __future__ import annotations
 
+import contextlib
 import heapq
 import itertools
+import multiprocessing
 import random
 import selectors
 import socket
 import threading
 import time
 from collections import Counter
+from collections.abc import Iterator
 from dataclasses import dataclass, field
+from typing import Any
 
 MAX_CLIENTS = 256
 MAX_SCHEDULED = 20000
@@ -200,3 +204,30 @@ class LossyProxy:
                         heapq.heappush(
                             self._heap, _Scheduled(when, next(self._seq), target_sock, data, target)
                         )
+
+
+def _serve_elsewhere(upstream: tuple[str, int], options: dict, pipe: Any) -> None:
+    with LossyProxy(upstream, **options) as proxy:
+        pipe.send(proxy.address)
+        pipe.recv()
+        pipe.send(dict(proxy.counters))
+
+
+@contextlib.contextmanager
+def separate_process(upstream: tuple[str, int], **options: Any
+                     ) -> Iterator[tuple[tuple[str, int], dict[str, int]]]:
+    """A :class:`LossyProxy` in a process of its own, for benches: the emulated radio
+    then keeps its timing however busy the measured sender and receiver keep their
+    interpreter. Yields its address and a dict filled with its counters on exit."""
+    ours, theirs = multiprocessing.Pipe()
+    proc = multiprocessing.get_context("fork").Process(
+        target=_serve_elsewhere, args=(upstream, options, theirs), daemon=True)
+    proc.start()
+    address = ours.recv()
+    counters: dict[str, int] = {}
+    try:
+        yield address, counters
+    finally:
+        ours.send("stop")
+        counters.update(ours.recv())
+        proc.join(5)

@@ -58,7 +58,7 @@ class ImageIndex:
             merged["targets"] = sample["targets"]
         return self._keep(sha, merged)
 
-    def transferred(self, manifest: Manifest, thumbnail: str = "") -> dict[str, Any]:
+    def transferred(self, manifest: Manifest, thumbnail: bytes = b"") -> dict[str, Any]:
         """The product to publish once the transfer of ``manifest`` is verified."""
         fresh = products.image_product(manifest)
         known = self._by_sha.get(manifest.sha256)
@@ -68,5 +68,5 @@ class ImageIndex:
             "targets": known.get("targets") or fresh["targets"],
         }
         if thumbnail:
-            merged["thumbnail"] = thumbnail
+            merged["thumbnail_png"] = thumbnail
         return self._keep(manifest.sha256, merged)

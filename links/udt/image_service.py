@@ -24,6 +24,7 @@ from links.udt.lane_plan import LanePlan
 from links.udt.protocol import AtrMetadata, Backoff, Manifest, check_file_name, transfer_id_for
 from links.udt.puller import Puller
 from links.udt.spool import Spool
+from links.udt.thumbnail import NoThumbnail, thumbnail
 from links.udt.transfer import (
     BulkReceiver,
     BulkSender,
@@ -34,6 +35,9 @@ from links.udt.transfer import (
 )
 
 log = logging.getLogger(__name__)
+
+THUMBNAIL_MAX_FILE = 64 << 20
+"""Larger files are not read back for a thumbnail."""
 
 PublishFn = Callable[[str, dict[str, Any]], None]
 """``publish(topic, sample_dict)``, e.g. ``DdsBridge.publish``."""
@@ -238,11 +242,36 @@ class ImageService:
                 sample["vehicle_id"], sample["image_id"] = self.index.key(status["manifest"])
         self._emit(products.TRANSFER_STATUS, sample)
 
+    def _thumbnail(self, manifest: Manifest, path: Path) -> bytes:
+        """A PNG thumbnail of the verified file, also written next to the delivered image
+        as ``<name>.thumb.png``; empty (and logged) when the format gets none."""
+        if manifest.size > THUMBNAIL_MAX_FILE:
+            return b""
+        try:
+            thumb = thumbnail(path.read_bytes())
+        except NoThumbnail as exc:
+            log.info("no thumbnail of %s: %s", manifest.name, exc)
+            return b""
+        except OSError as exc:
+            log.warning("no thumbnail of %s: %s", manifest.name, exc)
+            return b""
+        entry = self.spool.entry(manifest.transfer_id)
+        if entry is not None and entry.delivered:
+            target = Path(entry.delivered)
+            try:
+                tmp = target.with_name(f".{target.name}.thumb.tmp")
+                tmp.write_bytes(thumb)
+                tmp.replace(target.with_name(f"{target.name}.thumb.png"))
+            except OSError as exc:
+                log.warning("cannot write the thumbnail of %s: %s", manifest.name, exc)
+        return thumb
+
     def _verified(self, manifest: Manifest, path: Path) -> None:
         self.puller.arrived(manifest.sha256)
         self._progress.pop(manifest.sha256, None)
+        thumb = self._thumbnail(manifest, path)
         with self._publish_lock:
-            product = self.index.transferred(manifest)
+            product = self.index.transferred(manifest, thumb)
         self._emit(products.IMAGE_PRODUCT, product)
         vehicle_id, image_id = product["vehicle_id"], product["image_id"]
         if self.publish is not None and self.publish_data:

@@ -167,7 +167,7 @@ class Pace:
     def delay(self, n: int, now: float) -> float:
         """Seconds to wait before sending ``n`` bytes (and count them as sent then)."""
         allowance = self.burst * 8 / self.rate_bps
-        self._due = max(self._due, now - allowance)
+        self._due = max(self._due, now)
         wait = max(0.0, self._due - now - allowance)
         self._due += n * 8 / self.rate_bps
         return wait
