@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import pytest
 
 from links.udt.lane_plan import SPLIT_BYTES, LaneController, Pace, segments_for, straggler
@@ -96,4 +98,4 @@ def test_segments_depend_on_size_only(size, count):
     assert segments_for(size) == count
     bounds = [segment_bounds(size, i, count) for i in range(count)]
     assert bounds[0][0] == 0 and bounds[-1][1] == size
-    assert all(a[1] == b[0] for a, b in zip(bounds, bounds[1:], strict=False))
+    assert all(a[1] == b[0] for a, b in itertools.pairwise(bounds))
