@@ -80,7 +80,7 @@ def _card(s: Mapping[str, Any]) -> str:
                         for t in s.get("targets") or [])
     when = int(s.get("capture_time_ms", 0) or 0)
     captured = time.strftime("%H:%M:%S", time.gmtime(when / 1000)) if when else "?"
-    state = "verified" if s.get("transfer_id") else "announced, not yet here"
+    state = "fetched and verified" if s.get("transfer_id") else "announced over JAUS"
     return (
         f"<div class=\"card\"><b>{e(str(s.get('vehicle_id', '')))}</b><br>{picture}<br>"
         f"{e(str(s.get('file_name', '') or s.get('image_id', '')))}<br>"

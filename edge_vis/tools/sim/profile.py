@@ -151,6 +151,9 @@ class VehicleSpec:
     atr_period: float = setting(15.0, ge=0.0, unit="s")
     bulk_image_port: int = setting(0, ge=0, le=65535)
     atr_dir: str = ""
+    #: HOST:PORT where the vehicle serves ``atr_dir`` over UDT, as ``edge-vis serve-images``
+    #: does (port 0: a free one, printed with the vehicle); "" serves nothing
+    image_server: str = ""
     faults: FaultSpec = field(default_factory=FaultSpec)
     #: custom: the component id of its one component
     component: int = setting(1, ge=1, le=254)
