@@ -118,7 +118,11 @@ class LaneRun:
                     running.pop(lane, None)
                     started.pop(lane, None)
                     inflight.pop(lane, None)
-                    idle.append(sender)
+                    keep = not idle  # one open connection carries the verdict; the
+                    if keep:         # others go now, or the receiver's connection limit
+                        idle.append(sender)  # could keep a taken-over segment out
+                if not keep:
+                    sender.close()
 
         def start(lane: int, first: int | None = None) -> None:
             stop = threading.Event()

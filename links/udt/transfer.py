@@ -577,7 +577,7 @@ class BulkReceiver:
         on_verified: VerifiedFn | None = None,
         on_status: StatusFn | None = None,
         idle_timeout: float = 30.0,
-        max_connections: int = 16,
+        max_connections: int = 64,
         keys: Mapping[str, bytes] | None = None,
     ) -> None:
         self.spool = spool
