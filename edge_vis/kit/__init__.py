@@ -35,6 +35,7 @@ from edge_vis.kit.actions import (
 from edge_vis.kit.contract import (
     STATUS_NAMES,
     ClockView,
+    HandoffView,
     HolderView,
     ReportSpec,
     TopicDecl,
@@ -76,7 +77,7 @@ from edge_vis.schema import read_table, setting
 __all__ = [
     "CHUNK_BYTES", "NAN", "STATUS_NAMES", "Action", "Build", "ClockView", "Command", "CommandRule",
     "Computed", "ConfigError", "Const", "DeclareVehicle", "Each", "EmergencyRequest", "From",
-    "HolderView", "JausAddress", "Publish", "Put",
+    "HandoffView", "HolderView", "JausAddress", "Publish", "Put",
     "PutEach", "ReportRule", "ReportSpec", "RuleTranslator", "SendMessage", "ShutdownComplete",
     "Spec", "TopicDecl", "Translator", "TranslatorContext", "VehicleView", "clamp", "code_of",
     "declarations", "derive_vehicle_id", "describe_rules", "extract", "flags", "get_path",
