@@ -165,7 +165,9 @@ class IopTranslator(RuleTranslator):
                    {"level": From("ugv_severity_rec.severity", convert=label(
                        HEALTH_LEVELS, "HEALTH_UNKNOWN"), default="HEALTH_UNKNOWN"),
                     "faults": Computed(_faults, "severity_list[] with severity >= WARN")},
-                   query="QueryUGVSummary", service=HEALTH, rate=1.0, on_change=True),
+                   query="QueryUGVSummary", service=HEALTH, rate=1.0, on_change=True,
+                   merge=True, doc="merged with the battery of the ugv translator's "
+                                   "power plant rule"),
         ReportRule("ReportDigitalResourceEndpoint", "DigitalResource",
                    {"url": From("server_url", default=""),
                     "server_type": From("server_type", convert=label(SERVER_TYPES)),
@@ -214,14 +216,14 @@ class IopTranslator(RuleTranslator):
             when={"platform_mode": tuple(PLATFORM_MODES.values())}),
         Cmd("DigitalResourceCommand", "RegisterDigitalResourceEndpoint",
             IOP + "DigitalResourceDiscovery", "digital_resource",
-            {"request_id_rec.request_id": Put("request_id"),
+            {"request_id_rec.request_id": Put("request_id", 0, 255, convert=int),
              "digital_resource_endpoint_rec": Build(
                  "url, server_type, jaus_address, resource_id", _endpoint,
                  "server type by name; jaus_address S.N.C and resource_id >= 0 optional")},
             when={"action": "REGISTER"}),
         Cmd("DigitalResourceCommand", "RemoveDigitalResourceEndpoint",
             IOP + "DigitalResourceDiscovery", "digital_resource",
-            {"id": Put("endpoint_id"), "request_id": Put("request_id")},
+            {"id": Put("endpoint_id", convert=int), "request_id": Put("request_id", 0, 255, convert=int)},
             when={"action": "REMOVE"}),
     )
     extra_publishes = ("HandoffStatus",)

@@ -965,7 +965,7 @@ class NoGoZoneCommand(IdlStruct, typename="edge_vis::NoGoZoneCommand"):
     key("vehicle_id")
     operator_id: str
     action: str = "ADD"
-    request_id: uint8 = 0
+    request_id: uint16 = 0
     zone_id: uint16 = 0
     frame: Frame = Frame.GLOBAL
     vertices: sequence[Waypoint] = field(default_factory=list)
@@ -981,7 +981,7 @@ class RequestResult(IdlStruct, typename="edge_vis::RequestResult"):
     key("vehicle_id")
     request: str
     key("request")
-    request_id: uint8 = 0
+    request_id: uint16 = 0
     result: str = ""
     id: uint32 = 0
     timestamp_ms: int64 = 0
@@ -1007,13 +1007,14 @@ class DigitalResourceCommand(IdlStruct, typename="edge_vis::DigitalResourceComma
 
 @dataclass
 class CbrnStatus(IdlStruct, typename="edge_vis::CbrnStatus"):
-    """State of one CBRN payload station (IOP CBRNSensor): operating, configuration and
-    scan window reports merged; ``settings`` holds every reported field by its JAUS name
-    (enumerations as their label in ``text``)."""
+    """State of one CBRN payload station (IOP CBRNSensor; ``station`` 1..32, 0 = the
+    payload as a whole): the operating, configuration and scan window reports merged; each
+    report's every field by its JAUS name in ``operating``, ``configuration`` and
+    ``scan_window`` (enumerations as their number)."""
 
     vehicle_id: str
     key("vehicle_id")
-    station: uint8
+    station: uint32
     key("station")
     payload_state: str = ""
     operating_mode: str = ""
@@ -1022,7 +1023,9 @@ class CbrnStatus(IdlStruct, typename="edge_vis::CbrnStatus"):
     payload_type: str = ""
     power_mode: str = ""
     battery_remaining: float64 = NAN
-    settings: sequence[GenericField] = field(default_factory=list)
+    operating: sequence[GenericField] = field(default_factory=list)
+    configuration: sequence[GenericField] = field(default_factory=list)
+    scan_window: sequence[GenericField] = field(default_factory=list)
     timestamp_ms: int64 = 0
 
 
@@ -1033,12 +1036,12 @@ class CbrnDetection(IdlStruct, typename="edge_vis::CbrnDetection"):
 
     vehicle_id: str
     key("vehicle_id")
-    station: uint8
+    station: uint32
     key("station")
     kind: str
     key("kind")
     detection: str = ""
-    report_id: int32 = -1
+    report_id: int64 = -1
     text: str = ""
     time: float64 = NAN
     timestamp_ms: int64 = 0
@@ -1046,9 +1049,10 @@ class CbrnDetection(IdlStruct, typename="edge_vis::CbrnDetection"):
 
 @dataclass
 class CbrnCommand(IdlStruct, typename="edge_vis::CbrnCommand"):
-    """Command a CBRN payload station: ``kind`` COMMAND (CBRNCommand), CONFIGURATION
-    (CBRNConfigurationCommand) or DISPLAY (CBRNDisplayConfigurationCommand); ``settings``
-    names the JAUS fields (``set_power_mode``) with a label in ``text`` or a ``number``."""
+    """Command a CBRN payload station (1..32, 0 = all): ``kind`` COMMAND (CBRNCommand),
+    CONFIGURATION (CBRNConfigurationCommand, which needs ``set_cbrn4_delivery_mode``) or
+    DISPLAY (CBRNDisplayConfigurationCommand); ``settings`` names the JAUS fields
+    (``set_power_mode``) with a label in ``text`` (``On``) or a ``number``."""
 
     vehicle_id: str
     key("vehicle_id")

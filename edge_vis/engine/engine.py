@@ -368,6 +368,14 @@ class Engine:
             self._estop.on_identified(vehicle, now)
         self._apply(self.manager.on_vehicle(change, self._views.context(vehicle, now)), now)
 
+    def _merged(self, action: Publish) -> Publish:
+        """``action``'s sample over the latest of its instance (see ``Publish.merge``)."""
+        key = (action.topic, tuple(action.sample.get(k) for k in action.merge))
+        merged = self._state.merged.setdefault(key, {})
+        merged.update({k: v for k, v in action.sample.items()
+                       if k not in merged or not (v is None or v != v)})
+        return Publish(action.topic, dict(merged))
+
     def _apply(self, actions: Sequence[Action], now: float) -> None:
         """Translators' actions: commands are admitted, vehicles declared, the rest queued."""
         for action in actions:
@@ -378,6 +386,8 @@ class Engine:
                                      action.vehicle_type, now, seen=True)
             elif isinstance(action, EmergencyRequest):
                 self._estop.request(action, now)
+            elif isinstance(action, Publish) and action.merge:
+                self._state.actions.append(self._merged(action))
             elif isinstance(action, Publish | SendMessage):
                 self._state.actions.append(action)
             else:
