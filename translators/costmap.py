@@ -168,13 +168,13 @@ class CostmapTranslator(RuleTranslator):
                    doc="the answer to AddNoGoZone: the zone's ID"),
     )
     command_rules = (
+        Cmd("NoGoZoneCommand", "RemoveNoGoZone", COSTMAP, "no_go_zone",
+            {"zone_id": Put("zone_id", 0, 65535, convert=int)}, when={"action": "REMOVE"}),
         Cmd("NoGoZoneCommand", "AddNoGoZone", COSTMAP, "no_go_zone",
             {"request_id_rec.request_id": Put("request_id", 0, 65535, convert=int),
              "vertex_var": Build("frame, vertices", _vertices,
                                  "GLOBAL: latitude/longitude, LOCAL: x/y; 3 or more")},
             when={"action": "ADD"}),
-        Cmd("NoGoZoneCommand", "RemoveNoGoZone", COSTMAP, "no_go_zone",
-            {"zone_id": Put("zone_id", 0, 65535, convert=int)}, when={"action": "REMOVE"}),
     )
     def on_sample(self, topic: str, sample: Mapping[str, Any],
                   ctx: TranslatorContext) -> list[Action]:

@@ -28,10 +28,10 @@ TRIANGLE = [{"latitude": 48.1, "longitude": 11.5}, {"latitude": 48.2, "longitude
 
 
 @pytest.mark.parametrize(("rule", "values", "expected"), [
-    (COMMANDS[0], {"request_id": 9, "vertices": TRIANGLE},
+    (COMMANDS[1], {"request_id": 9, "vertices": TRIANGLE},
      {"request_id_rec": {"request_id": 9}, "vertex_var": {"global_vertex_list": TRIANGLE}}),
-    (COMMANDS[1], {"zone_id": 12}, {"zone_id": 12}),
-], ids=[c.message for c in COMMANDS])
+    (COMMANDS[0], {"zone_id": 12}, {"zone_id": 12}),
+], ids=[c.message for c in COMMANDS[::-1]])
 def test_every_declared_command(rule: CommandRule, values: dict[str, Any],
                                 expected: dict[str, Any]) -> None:
     command = check_command_rule(TR(), rule, command_sample(rule, **values))
