@@ -32,7 +32,6 @@ from edge_vis.kit import (
     Computed,
     Const,
     From,
-    Put,
     ReportRule,
     RuleTranslator,
     code_of,
@@ -57,15 +56,20 @@ DETECTIONS = {0: "Below Threshold", 1: "Above Threshold", 2: "Above Threshold Up
               3: "NIL (Detection Cleared)"}
 
 # the settings of the three commands: JAUS field -> its labels (an enumeration) or type
-ON_OFF = {0: 'Off', 1: 'On'}
-OPERATE = {0: 'Operate', 1: 'Standby', 2: 'Training'}
-REBOOT = {0: 'Normal Operation', 1: 'Reboot'}
-RESET = {0: 'Normal Operation', 1: 'Reset'}
-SAMPLING = {0: 'Stop Sampling', 1: 'Start Sampling', 2: 'Stop Scanning', 3: 'Start Scanning', 4: 'Stop Tracking', 5: 'Start Tracking'}
-TESTS = {0: 'Self Test (all Payload Components)', 1: 'Audio Test', 2: 'Control Component Test', 3: 'Power Distribution and Interface Logic Component Test', 4: 'Sensing Component Test (Confidence Test)', 5: 'Wireless Comms Component Test', 6: 'Dismounted Power Component Test', 7: 'User Interface Component Test (Display Test)'}
-TEST_MODE = {0: 'Stop Test', 1: 'Start Test'}
-ALARM = {0: 'Silence Alarm', 1: 'Activate Alarm'}
-KEYGUARD = {0: 'Unlocked', 1: 'Locked'}
+ON_OFF = {0: "Off", 1: "On"}
+OPERATE = {0: "Operate", 1: "Standby", 2: "Training"}
+REBOOT = {0: "Normal Operation", 1: "Reboot"}
+RESET = {0: "Normal Operation", 1: "Reset"}
+SAMPLING = {0: "Stop Sampling", 1: "Start Sampling", 2: "Stop Scanning", 3: "Start Scanning",
+            4: "Stop Tracking", 5: "Start Tracking"}
+TESTS = {0: "Self Test (all Payload Components)", 1: "Audio Test", 2: "Control Component Test",
+         3: "Power Distribution and Interface Logic Component Test",
+         4: "Sensing Component Test (Confidence Test)", 5: "Wireless Comms Component Test",
+         6: "Dismounted Power Component Test",
+         7: "User Interface Component Test (Display Test)"}
+TEST_MODE = {0: "Stop Test", 1: "Start Test"}
+ALARM = {0: "Silence Alarm", 1: "Activate Alarm"}
+KEYGUARD = {0: "Unlocked", 1: "Locked"}
 COMMAND_FIELDS: dict[str, Any] = {
     "set_power_mode": ON_OFF,
     "set_operating_mode": OPERATE,
@@ -80,16 +84,16 @@ COMMAND_FIELDS: dict[str, Any] = {
     "set_keyguard": KEYGUARD,
     "set_clock": float,
 }
-EXERCISE = {0: 'Exercise', 1: 'Operation'}
-POSITIONING = {0: 'Manual', 1: 'GPS'}
-SENSITIVITY = {0: 'Normal', 1: 'High'}
-SUBTRACT = {0: 'Do Not Subtract', 1: 'Subtract'}
-AUTO_MANUAL = {0: 'Automatic', 1: 'Manual'}
-DETECTION_MODE = {0: 'Automatic', 1: 'Manual', 2: 'Standby'}
-DETECTION_LEVEL = {0: 'Standard', 1: 'Miosis', 2: 'ICT5', 3: 'ICT50', 4: 'Operational', 5: 'Low'}
-AUDIO = {0: 'High', 1: 'Medium', 2: 'Low', 3: 'Off'}
-DELIVERY = {0: 'Threat Related', 1: 'Continuous'}
-LANGUAGE = {0: 'English', 1: 'French'}
+EXERCISE = {0: "Exercise", 1: "Operation"}
+POSITIONING = {0: "Manual", 1: "GPS"}
+SENSITIVITY = {0: "Normal", 1: "High"}
+SUBTRACT = {0: "Do Not Subtract", 1: "Subtract"}
+AUTO_MANUAL = {0: "Automatic", 1: "Manual"}
+DETECTION_MODE = {0: "Automatic", 1: "Manual", 2: "Standby"}
+DETECTION_LEVEL = {0: "Standard", 1: "Miosis", 2: "ICT5", 3: "ICT50", 4: "Operational", 5: "Low"}
+AUDIO = {0: "High", 1: "Medium", 2: "Low", 3: "Off"}
+DELIVERY = {0: "Threat Related", 1: "Continuous"}
+LANGUAGE = {0: "English", 1: "French"}
 CONFIGURATION_FIELDS: dict[str, Any] = {
     "set_exer_oper_name": str,
     "set_exer_oper_flag": EXERCISE,
@@ -117,8 +121,8 @@ CONFIGURATION_FIELDS: dict[str, Any] = {
     "set_cbrn4_delivery_mode": DELIVERY,
     "set_language": LANGUAGE,
 }
-BRIGHTNESS = {0: 'Off', 1: 'Low', 2: 'Medium', 3: 'High', 4: 'Night Vision'}
-DISPLAY_MODE = {0: 'Power Save', 1: 'Continuous'}
+BRIGHTNESS = {0: "Off", 1: "Low", 2: "Medium", 3: "High", 4: "Night Vision"}
+DISPLAY_MODE = {0: "Power Save", 1: "Continuous"}
 DISPLAY_FIELDS: dict[str, Any] = {
     "set_display_brightness_level": BRIGHTNESS,
     "set_display_mode": DISPLAY_MODE,

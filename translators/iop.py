@@ -31,7 +31,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from edge_vis.kit import CommandRule as Cmd
 from edge_vis.kit import (
     Action,
     Build,
@@ -48,6 +47,7 @@ from edge_vis.kit import (
     code_of,
     label,
 )
+from edge_vis.kit import CommandRule as Cmd
 
 IOP = "urn:jaus:jss:iop:"
 HEALTH = "urn:jaus:jss:exp:aeodrs:HealthMonitor"
@@ -223,7 +223,8 @@ class IopTranslator(RuleTranslator):
             when={"action": "REGISTER"}),
         Cmd("DigitalResourceCommand", "RemoveDigitalResourceEndpoint",
             IOP + "DigitalResourceDiscovery", "digital_resource",
-            {"id": Put("endpoint_id", convert=int), "request_id": Put("request_id", 0, 255, convert=int)},
+            {"id": Put("endpoint_id", convert=int),
+             "request_id": Put("request_id", 0, 255, convert=int)},
             when={"action": "REMOVE"}),
     )
     extra_publishes = ("HandoffStatus",)
