@@ -231,3 +231,107 @@ def test_ugv_drive_commands_and_capabilities(domain_id: int, partition: str) -> 
         assert "max_steering_rate" not in fields
 
     asyncio.run(relay_with(peer, 237, domain_id, partition, body))
+
+
+# ------------------------------------------------------------------------------ the sim
+
+
+class ForeignOcu(asyncio.DatagramProtocol):
+    """Another operator control unit on the JAUS network (not behind the relay)."""
+
+    def __init__(self, address: JausAddress) -> None:
+        from edge_vis.catalogue import default_catalogue
+
+        self.address = address
+        self.catalogue = default_catalogue()
+        self.transport: Any = None
+        self.received: list[tuple[str, dict[str, Any]]] = []
+
+    def connection_made(self, transport: Any) -> None:
+        self.transport = transport
+
+    def datagram_received(self, data: bytes, addr: Any) -> None:
+        from edge_vis.jaus.transport import unpack_datagram
+
+        for packet in unpack_datagram(data):
+            if packet.message_code is not None:
+                message = self.catalogue.decode(packet.payload)
+                self.received.append((message.name or "", message.fields or {}))
+
+    def send(self, to: JausAddress, where: tuple[str, int], name: str,
+             fields: dict[str, Any]) -> None:
+        from edge_vis.jaus.transport import Packet, pack_datagram
+
+        payload = self.catalogue.encode(name, fields)
+        self.transport.sendto(pack_datagram([Packet(to, self.address, payload)]), where)
+
+
+def test_sim_is_handed_to_another_ocu_by_the_holder(domain_id: int, partition: str) -> None:
+    from edge_vis.config import from_mapping
+    from edge_vis.tools.sim.profile import VehicleSpec
+    from edge_vis.tools.sim.runner import UdpVehicle
+
+    relay_ip, sim_ip, ocu_ip = "127.0.0.241", "127.0.0.242", "127.0.0.243"
+    profile = from_mapping({
+        "relay": {"jaus_id": "200.1.1"},
+        "links": {"lan": {"url": f"udp://{relay_ip}:3794?peers={sim_ip}:3794"}},
+        "dds": {"domain": domain_id, "partitions": [partition]},
+        "discovery": {"period": 0.5, "liveness_period": 0.5},
+        "commands": {"rate": 10.0, "lifespan": 2.0, "deadman_timeout": 30.0},
+    }, file="iop-sim-e2e.toml")
+    vid = "ugv-iop-161"
+    iop_component = JausAddress(161, 1, 4)
+
+    async def main() -> None:
+        sim = UdpVehicle(VehicleSpec("ugv-iop", 161, f"udp://{sim_ip}:3794", init_time=0.1,
+                                     iop=True))
+        await sim.start()
+        loop = asyncio.get_running_loop()
+        ocu = ForeignOcu(JausAddress(300, 1, 9))
+        await loop.create_datagram_endpoint(lambda: ocu, local_addr=(ocu_ip, 3794))
+        runtime = Runtime(profile)
+        await runtime.start()
+        operator = dds.DdsBridge(domain_id, (partition,))
+        try:
+            vehicle = sim.vehicle
+            assert vehicle is not None
+            cost_map = await collect(operator, "CostMap", lambda s: s["vehicle_id"] == vid,
+                                     timeout=15.0)
+            assert (cost_map["rows"], cost_map["frame"]) == (20, "LOCAL")
+            assert 254 in cost_map["costs"]  # the posts
+            request = {"vehicle_id": vid, "operator_id": "op1", "authority": 50,
+                       "action": "request"}
+            deadline = time.monotonic() + 10
+            while vehicle.component(4).controller is None or vehicle.component(4).state != 1:
+                assert time.monotonic() < deadline, "the relay never readied the Iop component"
+                operator.publish("ControlRequest", request)
+                await asyncio.sleep(0.2)
+            deadline = time.monotonic() + 5
+            while vehicle.motion.speed < 0.3:  # the relay's skid-steer command drives it
+                assert time.monotonic() < deadline, "skid-steer never drove the sim"
+                operator.publish("SkidSteerCommand", {"vehicle_id": vid, "operator_id": "op1",
+                                                      "left_effort": 40.0,
+                                                      "right_effort": 40.0})
+                await asyncio.sleep(0.1)
+            # another OCU asks the sim for a hand-off; the holder sees it and grants it
+            ocu.send(iop_component, (sim_ip, 3794), "RequestHandoff",
+                     {"authority_code": 80, "explanation": "take over"})
+            pending = await pending_request(operator, "jaus:300.1.9")
+            assert pending["explanation"] == "take over"
+            operator.publish("HandoffResponse", {"vehicle_id": vid, "operator_id": "op1",
+                                                 "request_id": pending["request_id"],
+                                                 "response": "GRANTED"})
+            await wait_for(lambda: ("ConfirmHandoffRequest", {"id": 1, "response_code": 0})
+                           in ocu.received, 5, "the grant at the other OCU")
+            assert vehicle.component(4).controller == JausAddress(300, 1, 9)
+            status = await collect(operator, "ControlStatus", lambda s: s["vehicle_id"] == vid
+                                   and s["operator_id"] == "")
+            assert status["operator_id"] == ""
+            assert ("ConfirmHandoffRequest", {"id": 1, "response_code": 4}) in ocu.received
+        finally:
+            operator.close()
+            await runtime.stop()
+            ocu.transport.close()
+            await sim.stop()
+
+    asyncio.run(main())
