@@ -16,7 +16,8 @@ JAUS -> DDS:
 
 * the engine's hand-off requests (IOP EnhancedAccessControl, HandoffController: operators
   asking the holder over ``HandoffRequest``, other JAUS clients through the vehicle's
-  RequestReleaseControl) -> ``HandoffStatus``, whenever one is made, answered or times out;
+  RequestReleaseControl, operators asking a vehicle another JAUS client holds and its
+  ConfirmHandoffRequest) -> ``HandoffStatus``, whenever one is made, answered or times out;
 * ConfirmDigitalResourceEndpoint -> ``RequestResult`` (the endpoint ID the vehicle gave).
 
 DDS -> JAUS (behind control, throttled): ``PlatformCommand`` -> SetPlatformState and/or
@@ -232,13 +233,6 @@ class IopTranslator(RuleTranslator):
         ("ReportHeartbeatPulse", "unsolicited heartbeats keep the vehicle alive in the "
                                  "engine; VehicleStatus comes from the core translator"),
         ("ReportPathReporterCapabilities", "path limits: not exposed"),
-        ("RequestHandoff", "the relay hands vehicles over between its own operators "
-                           "(HandoffRequest); it does not ask a vehicle held by another "
-                           "JAUS client for a hand-off"),
-        ("RemoveHandoffRequest", "sent only after a RequestHandoff, which the relay does not "
-                                 "send"),
-        ("ConfirmHandoffRequest", "the answer to a RequestHandoff, which the relay does not "
-                                  "send"),
     )
 
     def on_vehicle(self, change: str, ctx: TranslatorContext) -> list[Action]:
@@ -269,6 +263,19 @@ HANDOFF_ROWS: tuple[tuple[str, str, str, list[tuple[str, str, str]], str, str], 
       ("response_code", "response", "GRANTED, DENIED, WAIT")], "",
      "only the holder's answer to a request made through the vehicle; GRANTED leaves the "
      "vehicle to the other client"),
+    ("dds->jaus", "RequestHandoff", "HandoffRequest",
+     [("authority_code", "authority", ""), ("explanation", "explanation", "")], "",
+     "an operator asks for a vehicle nobody here holds but another JAUS client does: sent "
+     "to its components with EnhancedAccessControl held by that client, again each time "
+     "the operator asks again"),
+    ("dds->jaus", "RemoveHandoffRequest", "HandoffRequest",
+     [("id", "(the vehicle's request ID)", "action = CANCEL")], "", ""),
+    ("jaus->dds", "ConfirmHandoffRequest", "HandoffStatus",
+     [("response_code", "requests[].state", "QUEUED -> PENDING, DEFERRED, GRANTED, "
+                                            "DENIED, TIMEOUT, NOT_AVAILABLE, "
+                                            "INSUFFICIENT_AUTHORITY"),
+      ("id", "(kept for RemoveHandoffRequest)", "")], "",
+     "GRANTED: the requester holds the vehicle here and the relay confirms its control"),
     ("jaus->dds", "ReportHandoffTimeout", "HandoffStatus",
      [("timeout", "vehicle_handoff_timeout", "s; requests through the vehicle lapse after "
                                              "it")], "QueryHandoffTimeout",

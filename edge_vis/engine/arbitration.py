@@ -91,7 +91,8 @@ class Arbitration:
 # timeout (WAIT restarts it), a requester must ask again within the re-assert ("enhanced")
 # timeout; zero disables either. Another JAUS client asking the vehicle for control
 # reaches the holder the same way (``source`` is the vehicle component that asked, ``jaus_id``
-# the vehicle's own request ID).
+# the vehicle's own request ID). An ``outbound`` request goes the other way: an operator
+# asks for a vehicle another JAUS client holds, and the vehicle decides.
 
 #: states of a request still waiting for the holder
 OPEN = ("PENDING", "DEFERRED")
@@ -113,6 +114,7 @@ class HandoffEntry:
     reassert_by: float | None = None
     source: JausAddress | None = None
     jaus_id: int = 0
+    outbound: bool = False
 
     @property
     def open(self) -> bool:
@@ -156,13 +158,31 @@ class Handoffs:
         self._trim()
         return entry
 
+    def ask_vehicle(self, requester: str, authority: int, explanation: str, now: float,
+                    answer_within: float, reassert_within: float,
+                    source: JausAddress) -> HandoffEntry:
+        """``requester`` asks for a vehicle another JAUS client holds: the vehicle's
+        EnhancedAccessControl at ``source`` decides (a new request, or its open one)."""
+        entry = next((e for e in self.open() if e.requester == requester and e.outbound),
+                     None)
+        if entry is None:
+            entry = HandoffEntry(self._fresh_id(), requester, authority, explanation,
+                                 answer_by=now + answer_within if answer_within > 0 else None,
+                                 source=source, outbound=True)
+            self.entries.append(entry)
+        entry.authority, entry.explanation = authority, explanation
+        entry.reassert_by = now + reassert_within if reassert_within > 0 else None
+        entry.reason = entry.reason or f"asked {source}: held by another JAUS client"
+        self._trim()
+        return entry
+
     def answer(self, arb: Arbitration, operator_id: str, request_id: int, response: str,
                now: float, answer_within: float) -> tuple[HandoffEntry | None, str]:
         """The holder answers request ``request_id``: (the request, "" or why refused)."""
         if not arb.allows(operator_id):
             return None, f"{operator_id} does not hold the vehicle: cannot answer hand-offs"
         entry = self.find(request_id)
-        if entry is None:
+        if entry is None or entry.outbound:
             return None, f"no open hand-off request {request_id}"
         if response == "GRANTED":
             arb.holder = Holder(entry.requester, entry.authority)
@@ -184,7 +204,7 @@ class Handoffs:
         """``requester`` withdraws its open requests (those whose vehicle ID is not in
         ``keep``); True when one was open."""
         gone = [e for e in self.open() if e.requester == requester and e.source == source
-                and e.jaus_id not in keep]
+                and e.jaus_id not in keep and not e.outbound]
         for entry in gone:
             self.resolve(entry, "CANCELLED", "withdrawn by the requester")
         return bool(gone)
@@ -207,6 +227,8 @@ class Handoffs:
         GRANTED; with nobody holding it every request is DENIED. True when one changed."""
         changed = False
         for entry in self.open():
+            if entry.outbound:  # the vehicle decides those
+                continue
             if arb.holder is None:
                 self.resolve(entry, "DENIED", "released: ask with ControlRequest")
                 changed = True

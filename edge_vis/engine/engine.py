@@ -141,6 +141,7 @@ class Engine:
             "RejectEventRequest": self._reports.on_reject,
             "ReportEventTimeout": self._reports.on_event_timeout,
             "RequestReleaseControl": self._handoffs.on_release_request,
+            "ConfirmHandoffRequest": self._handoffs.on_confirm_handoff,
             "ReportHandoffTimeout": lambda v, _s, f, now: self._handoffs.on_timeouts(
                 v, "ReportHandoffTimeout", f, now),
             "ReportEnhancedTimeout": lambda v, _s, f, now: self._handoffs.on_timeouts(

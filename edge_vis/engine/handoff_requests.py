@@ -8,6 +8,12 @@ No I/O. The relay plays the IOP HandoffController for the operator holding a veh
 * the holder sees every request in ``HandoffStatus`` and answers with ``HandoffResponse``
   (GRANTED, DENIED or WAIT); a request to another JAUS client is answered on the wire with
   ``ConfirmReleaseControl``;
+* an operator asking for a vehicle nobody here holds but another JAUS client does (its
+  components with EnhancedAccessControl report that client in ReportControl) makes the
+  relay ask the vehicle with RequestHandoff; the vehicle answers with
+  ConfirmHandoffRequest (QUEUED, DEFERRED, then GRANTED, DENIED, TIMEOUT ...), and once
+  GRANTED the relay holds the component and the requester holds the vehicle here; a
+  CANCEL sends RemoveHandoffRequest;
 * the decisions, and the timeouts, are :class:`~edge_vis.engine.arbitration.Handoffs` on
   the vehicle's arbitration, so a grant moves the one holder and the old holder's queued
   commands are void, exactly as when control changes through ``ControlRequest``.
@@ -25,7 +31,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from edge_vis.engine.access import Access
-from edge_vis.engine.arbitration import HandoffEntry
+from edge_vis.engine.arbitration import HandoffEntry, Holder
 from edge_vis.engine.discovery import pick
 from edge_vis.engine.state import Changed, EngineState
 from edge_vis.engine.vehicle import Vehicle
@@ -37,6 +43,9 @@ log = logging.getLogger(__name__)
 ENHANCED_ACCESS_CONTROL = "urn:jaus:jss:iop:EnhancedAccessControl"
 #: ConfirmReleaseControl response codes (HandoffController)
 RELEASE_CODES = {"GRANTED": 0, "DENIED": 1, "WAIT": 2}
+#: ConfirmHandoffRequest response codes (EnhancedAccessControl)
+CONFIRM_CODES = {0: "GRANTED", 1: "NOT_AVAILABLE", 2: "TIMEOUT", 3: "DENIED", 4: "QUEUED",
+                 5: "DEFERRED", 6: "INSUFFICIENT_AUTHORITY"}
 #: the topics operators publish
 TOPICS = ("HandoffRequest", "HandoffResponse")
 
@@ -75,11 +84,30 @@ class HandoffRequests:
         control = self._state.profile.control
         handoffs = vehicle.handoffs
         if _text(sample.get("action", "REQUEST")) == "CANCEL":
-            if handoffs.cancel(operator):
+            asked = [e for e in handoffs.open() if e.outbound and e.requester == operator]
+            for entry in asked:  # withdrawn at the vehicle too
+                assert entry.source is not None
+                self._state.send(entry.source, "RemoveHandoffRequest", {"id": entry.jaus_id},
+                                 "control")
+                handoffs.resolve(entry, "CANCELLED", "withdrawn by the requester")
+            if handoffs.cancel(operator) or asked:
                 self._changed(vehicle, "handoff", now)
             return
         authority = int(sample.get("authority", 0))
         refusal = self._state.profile.operators.refusal(operator, authority)
+        held = self._held_elsewhere(vehicle)
+        if vehicle.arbitration.holder is None and held and not refusal:
+            timeout = vehicle.handoff_timeouts
+            entry = handoffs.ask_vehicle(
+                operator, authority, str(sample.get("explanation", "")), now,
+                timeout[0] if timeout[0] is not None else control.handoff_timeout,
+                timeout[1] if timeout[1] is not None else control.handoff_reassert_timeout,
+                held[0])
+            for address in held:  # asked again: the service's re-assertion
+                self._state.send(address, "RequestHandoff", {
+                    "authority_code": authority, "explanation": entry.explanation}, "control")
+            self._changed(vehicle, "handoff", now)
+            return
         entry = handoffs.ask(vehicle.arbitration, operator, authority,
                              str(sample.get("explanation", "")), now,
                              control.handoff_timeout, control.handoff_reassert_timeout)
@@ -142,6 +170,39 @@ class HandoffRequests:
                                                                           set()):
                 handoffs.resolve(entry, "CANCELLED", "no longer listed by the vehicle")
         self._changed(vehicle, "handoff", now)
+
+    def on_confirm_handoff(self, vehicle: Vehicle, source: JausAddress,
+                           fields: Mapping[str, Any], now: float) -> None:
+        """ConfirmHandoffRequest: the vehicle's answer to the relay's RequestHandoff."""
+        handoffs = vehicle.handoffs
+        asked = [e for e in handoffs.open() if e.outbound]
+        entry = next((e for e in asked if e.source == source), asked[0] if asked else None)
+        if entry is None:
+            self._state.counters["handoff_answers_unasked"] += 1
+            return
+        answer = CONFIRM_CODES.get(int(pick(fields, "response_code", 3)), "DENIED")
+        arb = vehicle.arbitration
+        if answer == "GRANTED" and arb.holder is None:
+            previous = arb.holder
+            arb.holder = Holder(entry.requester, entry.authority)
+            handoffs.resolve(entry, "GRANTED", f"granted by {source}")
+            self._holder_moved(vehicle, previous, now)  # the relay confirms its control
+        elif answer == "GRANTED":
+            handoffs.resolve(entry, "DENIED", f"{arb.holder.operator_id if arb.holder else ''}"
+                                              " took the vehicle meanwhile")
+        elif answer in ("QUEUED", "DEFERRED"):
+            entry.state = "PENDING" if answer == "QUEUED" else "DEFERRED"
+            entry.jaus_id = int(pick(fields, "id", 0))
+            entry.reason = f"{answer.lower()} by {source}"
+        else:
+            handoffs.resolve(entry, answer, f"{source} answered {answer}")
+        self._changed(vehicle, "handoff", now)
+
+    def _held_elsewhere(self, vehicle: Vehicle) -> list[JausAddress]:
+        """Components with EnhancedAccessControl another JAUS client controls."""
+        return [a for a in vehicle.providers(ENHANCED_ACCESS_CONTROL)
+                if (h := vehicle.holders.get(a)) is not None and h.controller is not None
+                and not h.is_relay]
 
     def on_timeouts(self, vehicle: Vehicle, name: str, fields: Mapping[str, Any],
                     now: float) -> None:

@@ -26,6 +26,7 @@ dds = pytest.importorskip("edge_vis.dds")
 IOP = "urn:jaus:jss:iop:"
 UGV = "urn:jaus:jss:ugv:"
 VID = "Handy-86"
+RELAY_ID = JausAddress(200, 1, 1)
 
 
 def vehicle() -> SetPeer:
@@ -144,6 +145,43 @@ def test_another_jaus_client_asks_through_the_vehicle(domain_id: int, partition:
         assert answer[-1].fields["release_control_list"] == [{"id": 3, "response_code": 1}]
 
     with_two_stations(domain_id, partition, body)
+
+
+def test_operator_asks_a_vehicle_another_ocu_holds(domain_id: int, partition: str) -> None:
+    other = JausAddress(300, 1, 9)
+    peer = vehicle()
+    peer.controller = other  # another operator control unit holds it
+
+    def decide(fields: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
+        if fields["authority_code"] < 100:  # not enough for the other OCU to let go
+            return [("ConfirmHandoffRequest", {"id": 4, "response_code": 3})]
+        peer.controller = RELAY_ID  # the other OCU let go: the requester's relay holds it
+        return [("ConfirmHandoffRequest", {"id": 4, "response_code": 0})]
+
+    peer.on_command = {"RequestHandoff": decide}
+
+    async def body(runtime: Runtime, op1: Any) -> None:
+        await wait_for(lambda: peer.names("QueryControl"), 5, "who holds it asked")
+        await asyncio.sleep(0.3)
+        ask = {"vehicle_id": VID, "operator_id": "op1", "authority": 50,
+               "explanation": "convoy"}
+        denied = None
+        deadline = time.monotonic() + 6
+        while denied is None and time.monotonic() < deadline:
+            op1.publish("HandoffRequest", ask)
+            denied = next((s for s in await asyncio.to_thread(
+                op1.reader("HandoffStatus").take, 0.3) if any(
+                r["state"] == "DENIED" for r in s["requests"])), None)
+        assert denied is not None, "the vehicle's refusal never reached the operator"
+        assert peer.names("RequestHandoff")[0].fields["explanation"] == "convoy"
+        await asyncio.sleep(1.0)  # the answers to the repeated requests are all in
+        op1.publish("HandoffRequest", {**ask, "authority": 120})
+        await collect(op1, "HandoffStatus", lambda s: any(
+            r["state"] == "GRANTED" for r in s["requests"]))
+        await collect(op1, "ControlStatus", lambda s: s["operator_id"] == "op1")
+        assert await drive_reaches(op1, peer, "op1", 12.0, seconds=5.0)
+
+    asyncio.run(relay_with(peer, 239, domain_id, partition, body))
 
 
 # ------------------------------------------------------------------------------ cost map

@@ -209,3 +209,37 @@ def test_jaus_request_refused_or_lapsed(catalogue: Any, response: str) -> None:
     h.deliver(ROBOT, "RequestReleaseControl", listing)
     h.deliver(ROBOT, "RequestReleaseControl", {"request_release_control_list": []})
     assert status(h)["requests"][-1]["state"] == "CANCELLED"
+
+
+def test_operator_asks_a_vehicle_another_client_holds(catalogue: Any) -> None:
+    h = harness(catalogue)
+    h.advance(0.1)
+    h.deliver(ROBOT, "ReportIdentification",
+              {"query_type": 2, "type": 10001, "identification": "JausppRobot"})
+    h.deliver(ROBOT, "ReportServices", report_services([
+        "urn:jaus:jss:core:Liveness", "urn:jaus:jss:core:Management", EAC,
+        "urn:jaus:jss:mobility:PrimitiveDriver"]))
+    h.deliver(ROBOT, "ReportControl", {"subsystem_id": 300, "node_id": 1, "component_id": 9,
+                                       "authority_code": 120})
+    out = ask(h, "op1", 90, why="need it")
+    (request,) = sent(out, "RequestHandoff", ROBOT)
+    assert request.fields == {"authority_code": 90, "explanation": "need it"}
+    assert not sent(out, "RequestControl")
+    h.deliver(ROBOT, "ConfirmHandoffRequest", {"id": 6, "response_code": 4})  # QUEUED
+    (entry,) = status(h)["requests"]
+    assert (entry["requester"], entry["state"], entry["via"]) == ("op1", "PENDING", ROBOT)
+    # the holder here is nobody: no operator may answer in the vehicle's place
+    answer(h, "op1", entry["request_id"], "GRANTED")
+    assert status(h)["requests"][0]["state"] == "PENDING"
+    out = ask(h, "op1", action="CANCEL")
+    assert sent(out, "RemoveHandoffRequest", ROBOT)[0].fields == {"id": 6}
+    assert status(h)["requests"][0]["state"] == "CANCELLED"
+    ask(h, "op1", 90)
+    h.deliver(ROBOT, "ConfirmHandoffRequest", {"id": 7, "response_code": 3})  # DENIED
+    assert status(h)["requests"][-1]["state"] == "DENIED"
+    assert published(h.log, "ControlStatus")[-1]["operator_id"] == ""
+    ask(h, "op1", 90)
+    out = h.deliver(ROBOT, "ConfirmHandoffRequest", {"id": 8, "response_code": 0})
+    assert status(h)["requests"][-1]["state"] == "GRANTED"
+    assert published(h.log, "ControlStatus")[-1]["operator_id"] == "op1"
+    assert sent(out, "RequestControl", ROBOT)  # the relay confirms the control it was given
