@@ -21,7 +21,8 @@ JAUS -> DDS:
 * ConfirmDigitalResourceEndpoint -> ``RequestResult`` (the endpoint ID the vehicle gave).
 
 DDS -> JAUS (behind control, throttled): ``PlatformCommand`` -> SetPlatformState and/or
-SetPlatformMode (an empty member leaves it unchanged); ``DigitalResourceCommand`` ->
+SetPlatformMode (an empty member leaves it unchanged), UpdateUGVSummary when
+``update_health``; ``DigitalResourceCommand`` ->
 RegisterDigitalResourceEndpoint or RemoveDigitalResourceEndpoint. ``HandoffRequest`` and
 ``HandoffResponse`` are read by the engine (operator arbitration), which answers the
 vehicle with ConfirmReleaseControl.
@@ -215,6 +216,8 @@ class IopTranslator(RuleTranslator):
             {"platform_mode": Put("platform_mode", convert=code_of(PLATFORM_MODES),
                                   note="mode name")},
             when={"platform_mode": tuple(PLATFORM_MODES.values())}),
+        Cmd("PlatformCommand", "UpdateUGVSummary", HEALTH, "health_update", {},
+            when={"update_health": True}, doc="the health monitor refreshes its summary"),
         Cmd("DigitalResourceCommand", "RegisterDigitalResourceEndpoint",
             IOP + "DigitalResourceDiscovery", "digital_resource",
             {"request_id_rec.request_id": Put("request_id", 0, 255, convert=int),

@@ -827,13 +827,15 @@ class DeviceCommand(IdlStruct, typename="edge_vis::DeviceCommand"):
 
 @dataclass
 class PlatformCommand(IdlStruct, typename="edge_vis::PlatformCommand"):
-    """Ask for an IOP platform state and/or mode (empty = leave unchanged)."""
+    """Ask for an IOP platform state and/or mode (empty = leave unchanged); with
+    ``update_health`` the health monitor is asked to refresh its summary."""
 
     vehicle_id: str
     key("vehicle_id")
     operator_id: str
     platform_state: str = ""
     platform_mode: str = ""
+    update_health: bool = False
 
 # --------------------------------------------------------------------------- IOP and UGV extras
 

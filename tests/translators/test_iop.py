@@ -24,12 +24,13 @@ def test_every_declared_report_translates(rule) -> None:  # type: ignore[no-unty
 @pytest.mark.parametrize(("rule", "values", "expected"), [
     (COMMANDS[0], {"platform_state": "operational", "platform_mode": ""}, {"platform_state": 1}),
     (COMMANDS[1], {"platform_mode": "Maintenance", "platform_state": ""}, {"platform_mode": 2}),
-    (COMMANDS[2], {"url": "rtsp://10.0.0.9/cam", "server_type": "rtsp", "request_id": 4,
+    (COMMANDS[2], {"update_health": True, "platform_state": "", "platform_mode": ""}, {}),
+    (COMMANDS[3], {"url": "rtsp://10.0.0.9/cam", "server_type": "rtsp", "request_id": 4,
                    "jaus_address": "150.1.3", "resource_id": 2},
      {"request_id_rec": {"request_id": 4}, "digital_resource_endpoint_rec": {
          "server_type": 0, "server_url": "rtsp://10.0.0.9/cam", "resource_id": 2,
          "jaus_id": {"subsystem_id": 150, "node_id": 1, "component_id": 3}}}),
-    (COMMANDS[3], {"endpoint_id": 17, "request_id": 5}, {"id": 17, "request_id": 5}),
+    (COMMANDS[4], {"endpoint_id": 17, "request_id": 5}, {"id": 17, "request_id": 5}),
 ], ids=[c.message for c in COMMANDS])
 def test_every_declared_command(rule: CommandRule, values: dict[str, Any],
                                 expected: dict[str, Any]) -> None:
