@@ -69,6 +69,12 @@ SERVICE_PARENTS: Mapping[str, str] = {
     ENV + "DigitalVideo": ENV + "VisualSensor",
     ENV + "AnalogVideo": ENV + "VisualSensor",
     ENV + "RangeSensor": CORE + "AccessControl",
+    "urn:jaus:jss:manipulator:ManipulatorListDriver": CORE + "ListManager",
+    "urn:jaus:jss:manipulator:ManipulatorJointPositionListDriver":
+        "urn:jaus:jss:manipulator:ManipulatorListDriver",
+    "urn:jaus:jss:manipulator:ListManager": CORE + "Management",
+    "urn:jaus:jss:manipulator:ManipulatorJointPositionsListDriver":
+        "urn:jaus:jss:manipulator:ListManager",
     # IOP (jsidl-iop): answers QueryControl/QueryAuthority like its parent
     "urn:jaus:jss:iop:EnhancedAccessControl": CORE + "AccessControl",
 }
