@@ -44,8 +44,9 @@ class SetPeer(asyncio.DatagramProtocol):
     """One JAUS component offering ``services`` and answering the queries in ``reports``.
 
     ``reports`` maps a query name to a function of the query's fields giving the report
-    ``(name, fields)``; ``version`` is what it reports for ``services``. ``discoverable=False`` ignores QueryIdentification/QueryServices
-    (a vehicle that only says hello).
+    ``(name, fields)``; ``version`` is what it reports for ``services``.
+    ``discoverable=False`` ignores QueryIdentification/QueryServices (a vehicle that only
+    says hello).
     """
 
     def __init__(self, address: JausAddress, services: tuple[str, ...],
