@@ -393,23 +393,6 @@ class ManipulatorTranslator(RuleTranslator):
               ("max_deceleration", "max_deceleration_rate", "rad/s^2"))),
     )
     command_rules = (
-        Cmd("JointCommand", "SetJointMotionProfile", MANIP + "ManipulatorJointMotionProfile",
-            "joint_motion_profile",
-            {"joint_motion_profile_list": Build(
-                "values, units", _profile_list,
-                "speed, acceleration, deceleration per joint (rad or m by units[i])")},
-            when={"device": ("manipulator", ""), "quantity": "motion_profile"},
-            doc="v1.0: SetMotionProfile, motion_profile_list"),
-        Cmd("JointCommand", "SetPanTiltMotionProfile", MANIP + "PanTiltMotionProfileService",
-            "pan_tilt_motion_profile",
-            {name: _pan_tilt_profile_value(i, 10 * math.pi) for i, name in enumerate(_PT_PROFILE)},
-            when={"device": "pan_tilt", "quantity": "motion_profile"}),
-        Cmd("EndEffectorCommand", "SetToolOffset", MANIP + "ManipulatorToolOffsetService",
-            "tool_offset",
-            {"tool_point_coordinate_x": Put("x", -15.0, 15.0),
-             "tool_point_coordinate_y": Put("y", -15.0, 15.0),
-             "tool_point_coordinate_z": Put("z", -15.0, 15.0)},
-            when={"mode": "tool_offset"}),
         Cmd("JointCommand", "SetJointPositions", MANIP + "ManipulatorJointPositionDriver",
             "joint_position", {"joint_position_list": PutEach(
                 "values", _position, "radian, or meter where units[i] is m; clamped")},
@@ -480,6 +463,23 @@ class ManipulatorTranslator(RuleTranslator):
         Cmd("EndEffectorCommand", "SetEndEffectorEffort", MANIP + "PrimitiveEndEffector",
             "end_effector_effort", {"end_effector_effort": Put("effort", -100.0, 100.0)},
             when={"mode": "effort"}),
+        Cmd("JointCommand", "SetJointMotionProfile", MANIP + "ManipulatorJointMotionProfile",
+            "joint_motion_profile",
+            {"joint_motion_profile_list": Build(
+                "values, units", _profile_list,
+                "speed, acceleration, deceleration per joint (rad or m by units[i])")},
+            when={"device": ("manipulator", ""), "quantity": "motion_profile"},
+            doc="v1.0: SetMotionProfile, motion_profile_list"),
+        Cmd("JointCommand", "SetPanTiltMotionProfile", MANIP + "PanTiltMotionProfileService",
+            "pan_tilt_motion_profile",
+            {name: _pan_tilt_profile_value(i, 10 * math.pi) for i, name in enumerate(_PT_PROFILE)},
+            when={"device": "pan_tilt", "quantity": "motion_profile"}),
+        Cmd("EndEffectorCommand", "SetToolOffset", MANIP + "ManipulatorToolOffsetService",
+            "tool_offset",
+            {"tool_point_coordinate_x": Put("x", -15.0, 15.0),
+             "tool_point_coordinate_y": Put("y", -15.0, 15.0),
+             "tool_point_coordinate_z": Put("z", -15.0, 15.0)},
+            when={"mode": "tool_offset"}),
     )
     not_translated = ()
 
