@@ -100,6 +100,7 @@ class Views:
             handoff_reassert_timeout=state.profile.control.handoff_reassert_timeout,
             vehicle_handoff_timeout=(vehicle.handoff_timeouts[0]
                                      if vehicle.handoff_timeouts[0] is not None else NAN),
+            dialects=self._state.dialects(vehicle),
         )
 
     def context(self, vehicle: Vehicle | None, now: float,

@@ -170,6 +170,9 @@ class VehicleView:
     handoff_timeout: float = 0.0
     handoff_reassert_timeout: float = 0.0
     vehicle_handoff_timeout: float = float("nan")
+    #: the message dialects it speaks (``manipulator-1.0``, ``iop``): its messages are
+    #: decoded and encoded with those definitions
+    dialects: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
