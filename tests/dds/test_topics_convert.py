@@ -82,6 +82,9 @@ def test_kinds_decide_direction() -> None:
         "JointCommand", "EndEffectorCommand", "DeviceCommand", "PlatformCommand",
         "VectorCommand", "AccelerationLimitCommand", "PoseCommand", "EmergencyCommand",
         "ManagementCommand",
+        # IOP and UGV
+        "HandoffRequest", "HandoffResponse", "CostMapRequest", "NoGoZoneCommand",
+        "DigitalResourceCommand", "CbrnCommand", "SkidSteerCommand", "AckermannCommand",
     }
     assert registry.get("EmergencyCommand").kind is TopicKind.EMERGENCY
     assert registry.get("VehicleClock").kind is TopicKind.STATE
