@@ -373,3 +373,41 @@ def test_sim_is_handed_to_another_ocu_by_the_holder(domain_id: int, partition: s
             await sim.stop()
 
     asyncio.run(main())
+
+
+# ------------------------------------------------------------------------------ CBRN, resources
+
+
+def test_cbrn_payload_and_digital_resources(domain_id: int, partition: str) -> None:
+    peer = SetPeer(JausAddress(89, 1, 1), (IOP + "CBRNSensor", IOP + "DigitalResourceDiscovery"),
+                   {"QueryCBRNOperatingState": lambda f: ("CBRNOperatingState", {
+                       "station_number": 4, "payload_state": 2, "battery_remaining": 61.0}),
+                    "QueryCBRN4": lambda f: ("CBRN4", {"station_number": 4,
+                                                       "detection_type": 1,
+                                                       "cbrn4": "ALFA/CAM-3//"})},
+                   name="Sniffer", on_command={
+                       "RegisterDigitalResourceEndpoint": lambda f: [(
+                           "ConfirmDigitalResourceEndpoint",
+                           {"id": 31, "request_id": f["request_id_rec"]["request_id"]})]})
+
+    async def body(runtime: Runtime, operator: Any) -> None:
+        status = await collect(operator, "CbrnStatus", lambda s: s["vehicle_id"] == "Sniffer-89")
+        assert (status["station"], status["payload_state"]) == (3, "Above Threshold")
+        detection = await collect(operator, "CbrnDetection", lambda s: s["kind"] == "CBRN4")
+        assert (detection["detection"], detection["text"]) == ("Above Threshold", "ALFA/CAM-3//")
+        await take_control(operator, peer, "Sniffer-89")
+        fields = await command_until(operator, peer, "CbrnCommand", {
+            "vehicle_id": "Sniffer-89", "operator_id": "op1", "station": 3, "kind": "COMMAND",
+            "settings": [{"name": "set_sampling_mode", "text": "Start Sampling",
+                          "number": float("nan")}]}, "CBRNCommand")
+        assert (fields["station_number"], fields["set_sampling_mode"]) == (4, 1)
+        fields = await command_until(operator, peer, "DigitalResourceCommand", {
+            "vehicle_id": "Sniffer-89", "operator_id": "op1", "action": "REGISTER",
+            "request_id": 7, "url": "rtsp://10.1.1.2/cam", "server_type": "RTSP"},
+            "RegisterDigitalResourceEndpoint")
+        assert fields["digital_resource_endpoint_rec"]["server_url"] == "rtsp://10.1.1.2/cam"
+        result = await collect(operator, "RequestResult",
+                               lambda s: s["request"] == "DigitalResourceEndpoint")
+        assert (result["request_id"], result["id"]) == (7, 31)
+
+    asyncio.run(relay_with(peer, 231, domain_id, partition, body))
