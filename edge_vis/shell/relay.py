@@ -32,9 +32,9 @@ from edge_vis.bandwidth.demands import FleetPlanner
 from edge_vis.bandwidth.linkspec import DEFAULT_PRIORITIES, LinkSpec
 from edge_vis.catalogue import Catalogue
 from edge_vis.config import BulkProfile, LinkProfile, RelayProfile
+from edge_vis.config.deployment import operator_partition
 from edge_vis.engine.announcements import verify_discovery
 from edge_vis.engine.engine import Engine
-from edge_vis.config.deployment import operator_partition
 from edge_vis.errors import CodecError, ConfigError, EdgeVisError, EncodeError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import Broadcast, Packet

@@ -203,20 +203,24 @@ def security_problems(settings: DdsSecurityProfile,
     if problems:
         return problems
 
-    def attempt(key: str, check: object) -> object:
+    def attempt(key: str, what: str, check: object) -> object:
         try:
             return check()  # type: ignore[operator]
         except PkiError as exc:
-            problems.append((f"{where}.{key}", str(exc)))
+            problems.append((f"{where}.{key}", f"{what} ({exc})" if what else str(exc)))
             return None
 
-    attempt("certificate", lambda: verify_certificate(settings.identity_ca,
-                                                      settings.certificate, settings.crl))
-    attempt("private_key", lambda: check_private_key(settings.private_key, settings.certificate))
-    attempt("governance", lambda: verify_document(settings.permissions_ca, settings.governance))
-    text = attempt("permissions", lambda: verify_document(settings.permissions_ca,
-                                                          settings.permissions))
-    subject = attempt("certificate", lambda: certificate_subject(settings.certificate))
+    identity_ca, permissions_ca = settings.identity_ca, settings.permissions_ca
+    attempt("certificate", f"not valid under the identity CA {identity_ca}: not issued by "
+            "it, expired or revoked", lambda: verify_certificate(
+                identity_ca, settings.certificate, settings.crl))
+    attempt("private_key", "", lambda: check_private_key(settings.private_key,
+                                                         settings.certificate))
+    attempt("governance", f"not signed by the permissions CA {permissions_ca}",
+            lambda: verify_document(permissions_ca, settings.governance))
+    text = attempt("permissions", f"not signed by the permissions CA {permissions_ca}",
+                   lambda: verify_document(permissions_ca, settings.permissions))
+    subject = attempt("certificate", "", lambda: certificate_subject(settings.certificate))
     if isinstance(text, str) and isinstance(subject, str) and \
             f"<subject_name>{subject}</subject_name>" not in text:
         problems.append((f"{where}.permissions",

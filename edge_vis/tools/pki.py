@@ -37,8 +37,12 @@ def _openssl(*args: str, stdin: bytes | None = None) -> str:
         raise PkiError("the openssl command is needed (Debian: apt-get install openssl)")
     done = subprocess.run([exe, *args], input=stdin, capture_output=True, check=False)
     if done.returncode != 0:
-        detail = (done.stderr or done.stdout).decode(errors="replace").strip()
-        raise PkiError(f"openssl {args[0]}: {detail.splitlines()[-1] if detail else 'failed'}")
+        lines = (done.stdout + done.stderr).decode(errors="replace").splitlines()
+        # `openssl verify` says why on stdout ("error 23 at 0 depth lookup: certificate
+        # revoked"), most others on the last line of stderr
+        why = [line.strip() for line in lines if line.startswith("error ")] or \
+            [line.strip() for line in lines[-1:]]
+        raise PkiError(f"openssl {args[0]}: {'; '.join(why) or 'failed'}")
     return done.stdout.decode(errors="replace")
 
 

@@ -25,11 +25,11 @@ import pytest
 
 pytest.importorskip("cyclonedds")
 
-from edge_vis.cli import main as cli  # noqa: E402
-from edge_vis.config import load_profile  # noqa: E402
-from edge_vis.dds.secure_qos import HOW_TO_SECURE, security_available  # noqa: E402
-from edge_vis.tools.access_documents import OPERATOR  # noqa: E402
-from edge_vis.tools.deployment_keys import SecurityDirectory  # noqa: E402
+from edge_vis.cli import main as cli
+from edge_vis.config import load_profile
+from edge_vis.dds.secure_qos import HOW_TO_SECURE, security_available
+from edge_vis.tools.access_documents import OPERATOR
+from edge_vis.tools.deployment_keys import SecurityDirectory
 
 pytestmark = pytest.mark.skipif(not security_available(), reason=HOW_TO_SECURE)
 
