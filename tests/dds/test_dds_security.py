@@ -15,6 +15,7 @@ import os
 import subprocess
 import sys
 import threading
+import time
 import uuid
 from collections.abc import Iterator
 from dataclasses import asdict
@@ -175,7 +176,11 @@ def test_an_operator_claiming_another_operator_id_is_refused_and_counted(
         deployment: Deployment) -> None:
     runtime, sim = deployment.runtime, deployment.vehicle.vehicle
     key = "commands refused: operator_id is not the sender"
-    before, obeyed = runtime.counters[key], sim.counters["commands_obeyed"]
+    obeyed = -1
+    while obeyed != sim.counters["commands_obeyed"]:  # earlier tests' commands have landed
+        obeyed = sim.counters["commands_obeyed"]
+        time.sleep(1.0)
+    before = runtime.counters[key]
     # op2's own identity and partition, but every command says it is op1
     events = deployment.operator(deployment.files(deployment.ours, OPERATOR, "op2"),
                                  write_as="op2", claim="op1")
