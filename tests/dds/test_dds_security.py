@@ -240,3 +240,45 @@ def test_relay_reads_commands_only_from_listed_operators_partitions(
     partitions = sorted({s.partition for s in bridge._subscriptions})
     assert partitions == ["operator.op1", "operator.op2"]
     assert bridge.secure
+
+
+def test_a_revoked_operator_never_matches_a_relay_with_the_new_list(
+        deployment: Deployment, tmp_path: Path) -> None:
+    from edge_vis.dds import DdsBridge
+
+    # a deployment of its own (permissions name their domain), op2 revoked after issue
+    domain, partition = deployment.domain - 30, f"edge-vis-rev-{uuid.uuid4().hex[:8]}"
+    profile = tmp_path / "relay.toml"
+    profile.write_text(_profile_text(domain, partition))
+    keys = SecurityDirectory(tmp_path / "security")
+    assert cli(["security", "init", "--profile", str(profile), "--dir",
+                str(keys.directory)]) == 0
+    old_list = tmp_path / "crl-before.pem"
+    old_list.write_bytes(keys.ca.crl.read_bytes())
+    assert cli(["security", "revoke", "--dir", str(keys.directory), "op2"]) == 0
+
+    relay = DdsBridge(domain, (partition,),
+                      security=keys.profile_for(keys.identity("relay", "relay1")))
+    stop = threading.Event()
+
+    def publish() -> None:
+        while not stop.is_set():
+            relay.publish("GlobalPose", {"vehicle_id": "ugv-rev", "latitude": 1.0,
+                                         "longitude": 2.0, "altitude": 0.0, "roll": 0.0,
+                                         "pitch": 0.0, "yaw": 0.0, "timestamp_ms": 0})
+            time.sleep(0.1)
+
+    writer = threading.Thread(target=publish, daemon=True)
+    writer.start()
+    try:
+        dep = Deployment.__new__(Deployment)
+        dep.domain, dep.partition = domain, partition
+        events = dep.operator(dep.files(keys, OPERATOR, "op1"), write_as="op1")
+        assert _event(events, "pose"), events  # the others match
+        op2 = {**dep.files(keys, OPERATOR, "op2"), "crl": str(old_list)}  # kept the old list
+        events = dep.operator(op2, write_as="op2")
+        assert _event(events, "pose") is None, events
+    finally:
+        stop.set()
+        writer.join(5)
+        relay.close()
