@@ -9,6 +9,7 @@ setting's type, default, range and TOML key is written here once. The file layou
     [relay]          jaus_id, authority, name           -> RelayProfile
     [links.NAME]     url, bandwidth, options, profile   -> LinkProfile (+ LinkSpec keys)
     [dds]            domain, partitions                 -> DdsProfile
+    [dds.security]   identity_ca, certificate, ...      -> DdsSecurityProfile
     [translators]    enabled, disabled, [translators.NAME] tables -> TranslatorSelection
     [discovery] [control] [events] [commands] [emergency] [limits] [bulk]
     [report_rates]   Report = Hz or {desired, minimum, priority} (edge_vis.config.report_rates)
