@@ -21,7 +21,7 @@ Control, events, throttling and the dead-man stop are the engine's: a translator
 
 from __future__ import annotations
 
-from edge_vis.errors import ConfigError
+from edge_vis.errors import ConfigError, DecodeError, EncodeError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.actions import (
     Action,
@@ -75,7 +75,7 @@ from edge_vis.schema import read_table, setting
 
 __all__ = [
     "CHUNK_BYTES", "NAN", "STATUS_NAMES", "Action", "Build", "ClockView", "Command", "CommandRule",
-    "Computed", "ConfigError", "Const", "DeclareVehicle", "Each", "EmergencyRequest", "From",
+    "Computed", "ConfigError", "Const", "DecodeError", "DeclareVehicle", "Each", "EmergencyRequest", "EncodeError", "From",
     "HolderView", "JausAddress", "Publish", "Put",
     "PutEach", "ReportRule", "ReportSpec", "RuleTranslator", "SendMessage", "ShutdownComplete",
     "Spec", "TopicDecl", "Translator", "TranslatorContext", "VehicleView", "clamp", "code_of",
