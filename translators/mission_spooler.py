@@ -41,7 +41,6 @@ from edge_vis.kit import (
     Publish,
     Put,
     ReportRule,
-    ReportSpec,
     RuleTranslator,
     SendMessage,
     TranslatorContext,

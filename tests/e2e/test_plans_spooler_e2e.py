@@ -189,7 +189,8 @@ def test_a_mission_is_spooled_run_paused_resumed_and_aborted(domain_id: int,
         assert [(m["uid"], m["message"], m["blocking"]) for m in root["messages"]] == [
             (1, "SetTravelSpeed", False), (2, "SetTravelSpeed", True),
             (3, "SetTravelSpeed", False)]
-        assert json.loads(root["messages"][2]["fields_json"])["speed"] == pytest.approx(3.0, abs=0.01)
+        third = json.loads(root["messages"][2]["fields_json"])
+        assert third["speed"] == pytest.approx(3.0, abs=0.01)
 
         operator.publish("MissionSpoolCommand", order(vid, "RUN"))
         await statuses.until(lambda s: s["scope"] == "MISSION" and s["id"] == 7

@@ -7,7 +7,8 @@ PAUSED; Insert/Remove messages and tasks while PAUSED; AbortMission at any time 
 Anything else is ignored, as a real spooler does. A running mission executes its
 messages in order, depth first through the task tree, one every :data:`MESSAGE_SECONDS`
 (a blocking message holds the next one back twice as long); the sim records each as
-executed when it starts rather than acting on it. When the last message is done the mission is FINISHED and cleared.
+executed when it starts rather than acting on it. When the last message is done the
+mission is FINISHED and cleared.
 """
 
 from __future__ import annotations

@@ -2,9 +2,10 @@
 
 Elements are a doubly linked list keyed by UID (AS5710A List Manager): each SetElement
 record names its previous and next UIDs, 0 meaning none. A request is applied whole or
-refused whole with the JSIDL response code. Element data must be a SetGlobalWaypoint
-or a SetGlobalPathSegment message (the Global Path Segment Driver's list); the driver steers the kinematic model to each waypoint in turn at the travel
-speed given by ExecuteList and reports the active element (0 when none).
+refused whole with the JSIDL response code. Element data must be a SetGlobalWaypoint or
+a SetGlobalPathSegment message (the Global Path Segment Driver's list, driven straight to
+each segment's end point); the driver steers the kinematic model to each waypoint in turn
+at the travel speed given by ExecuteList and reports the active element (0 when none).
 """
 
 from __future__ import annotations
