@@ -92,13 +92,6 @@ def address_text(bits: Any) -> str:
     return f"{bits.get('subsystem_id', 0)}.{bits.get('node_id', 0)}.{bits.get('component_id', 0)}"
 
 
-def _is(*actions: str) -> Any:
-    def matches(value: Any) -> bool:
-        return action_of(value) in actions
-    matches.__doc__ = " | ".join(actions)
-    return matches
-
-
 def _optional(member: str) -> Put:
     return Put(member, 0, 0xFFFF, convert=int, optional=True, note="0 = left out")
 
@@ -127,7 +120,8 @@ def _task(sample: Mapping[str, Any]) -> dict[str, Any]:
 
 def _cmd(action: str, message: str, fields: Mapping[str, Any], doc: str = "") -> Cmd:
     return Cmd("MissionSpoolCommand", message, SPOOLER, f"spooler_{action.lower()}",
-               dict(fields), when={"action": _is(action)}, doc=doc, lifespan=ORDER_LIFESPAN)
+               dict(fields), when={"action": (action, f"SPOOLER_{action}")}, doc=doc,
+               lifespan=ORDER_LIFESPAN)
 
 
 _MISSION = Build("mission_id", lambda s: int(s.get("mission_id") or 0), "")
