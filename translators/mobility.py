@@ -30,7 +30,8 @@ DDS -> JAUS (commands, throttled and control-checked by the engine):
   [-pi, pi]; absent = unchanged; stop = speed zero)
 * ``AccelerationLimitCommand`` -> SetAccelerationLimit (MAXIMUM / MINIMUM)
 * ``PoseCommand`` -> SetGlobalPose / SetLocalPose by ``frame`` (resets a pose sensor's
-  estimate; absent = unchanged)
+  estimate; absent = unchanged); its ``magnetic_variation``, when given, ->
+  SetGeomagneticProperty
 * ``WaypointPlan`` -> the List Manager sequence to the Global/LocalWaypointListDriver
   (DeleteElement, SetElement with Set{Global,Local}Waypoint elements, ExecuteList), or
   SetTravelSpeed and Set{Global,Local}Waypoint one at a time to a vehicle with only a
@@ -128,6 +129,11 @@ def _is_local(value: Any) -> bool:
 def _is_global(value: Any) -> bool:
     """GLOBAL (the default)"""
     return not _is_local(value)
+
+
+def _given(value: Any) -> bool:
+    """given"""
+    return value is not None and not (isinstance(value, float) and math.isnan(value))
 
 
 def _measured(*pairs: tuple[str, str], note: str = "") -> dict[str, From]:
@@ -303,6 +309,10 @@ COMMAND_RULES = (
         doc="resets the sensor's estimate"),
     Cmd("PoseCommand", "SetLocalPose", LOCAL_POSE_SENSOR, "pose_reset",
         _set_pose(local=True), when={"frame": _is_local}, doc="resets the sensor's estimate"),
+    Cmd("PoseCommand", "SetGeomagneticProperty", GLOBAL_POSE_SENSOR, "geomagnetic",
+        {"magnetic_variation": Put("magnetic_variation", convert=wrap_angle,
+                                   note="rad, east positive, wrapped to [-pi, pi]")},
+        when={"magnetic_variation": _given}),
 )
 
 # -- waypoint missions (WaypointPlan -> List Manager / waypoint drivers -> MissionStatus) --

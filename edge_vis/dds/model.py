@@ -1154,7 +1154,8 @@ class GeomagneticProperty(IdlStruct, typename="edge_vis::GeomagneticProperty"):
 @dataclass
 class PoseCommand(IdlStruct, typename="edge_vis::PoseCommand"):
     """Reset a pose sensor's estimate: GLOBAL (deg, m) or LOCAL (m) position, attitude (rad),
-    and their RMS uncertainty; an absent member is left unchanged."""
+    and their RMS uncertainty; an absent member is left unchanged. ``magnetic_variation``
+    (rad, east positive), when given, sets the global pose sensor's geomagnetic property."""
 
     vehicle_id: str
     key("vehicle_id")
@@ -1171,6 +1172,7 @@ class PoseCommand(IdlStruct, typename="edge_vis::PoseCommand"):
     yaw: Optional[float64] = None  # noqa: UP045
     position_rms: Optional[float64] = None  # noqa: UP045
     attitude_rms: Optional[float64] = None  # noqa: UP045
+    magnetic_variation: Optional[float64] = None  # noqa: UP045 (rad, east positive)
 
 
 STRUCTS: tuple[type[IdlStruct], ...] = (
