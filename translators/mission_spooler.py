@@ -16,8 +16,10 @@ Each message of a task is given by name with its fields as JSON and encoded with
 relay's catalogue; a message that does not encode refuses the whole command.
 
 The service's protocol (the JSIDL) lets only the controlling client spool and change a
-mission, and each order only in some states: PAUSE while RUNNING; RESUME and the
-Insert/Remove orders while PAUSED. An order the last reported mission state does not allow
+mission, and each order only in some states: SPOOL when no mission is held (INIT,
+ABORTED, FINISHED), RUN when one is held or PAUSED (INIT, PAUSED), PAUSE while RUNNING,
+RESUME and the Insert/Remove orders while PAUSED; ABORT and QUERY_PLAN at any time. INIT
+is both "nothing held" and "held, not run" in ReportMissionStatus, so it allows both. An order the last reported mission state does not allow
 is refused here, with the reason, as ``SpoolerStatus`` scope ``COMMAND`` status
 ``REFUSED``; the vehicle would ignore it silently.
 """
@@ -60,6 +62,8 @@ DETAILS = {0: "NONE", 1: "LOST_COMPONENT_CONTROL", 2: "TOLERANCE_NOT_MET",
            3: "INTERNAL_FAILURE"}
 #: action -> the mission states (last ReportMissionStatus) it is accepted in; absent: any
 ALLOWED_IN = {
+    "SPOOL": ("INIT", "ABORTED", "FINISHED"),
+    "RUN": ("INIT", "PAUSED"),
     "PAUSE": ("RUNNING",),
     "RESUME": ("PAUSED",),
     "INSERT_MESSAGES": ("PAUSED",),
@@ -268,6 +272,9 @@ class MissionSpoolerTranslator(RuleTranslator):
         if action == "SPOOL" and not tasks:
             return [self._refuse(vehicle.vehicle_id, sample, ctx,
                                  "SPOOL refused: the mission has no task")]
+        if action == "SPOOL":
+            # a new mission: what the last one's state allowed no longer says anything
+            self.state.pop(vehicle.vehicle_id, None)
         prepared = {**sample, "_tasks": tasks, "_relay": address_bits(ctx.relay_id),
                     # an ID of 0 narrows nothing: left out of RunMission / PauseMission
                     "task_id": sample.get("task_id") or None,

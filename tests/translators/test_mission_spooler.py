@@ -147,9 +147,11 @@ def status(tr: MissionSpoolerTranslator, state: int, scope: int = 0) -> list[Any
 
 #: reported mission state, actions refused in it, actions sent in it
 PROTOCOL = [
-    (1, ("RESUME", "INSERT_MESSAGES", "REMOVE_TASK"), ("PAUSE", "ABORT", "RUN")),
-    (3, ("PAUSE",), ("RESUME", "REMOVE_MESSAGES", "REMOVE_TASK", "ABORT", "RUN")),
+    (1, ("RESUME", "INSERT_MESSAGES", "REMOVE_TASK", "RUN", "SPOOL"),
+     ("PAUSE", "ABORT", "QUERY_PLAN")),
+    (3, ("PAUSE", "SPOOL"), ("RESUME", "REMOVE_MESSAGES", "REMOVE_TASK", "ABORT", "RUN")),
     (0, ("PAUSE", "RESUME"), ("RUN", "ABORT", "SPOOL")),
+    (7, ("RUN", "PAUSE", "INSERT_TASK"), ("ABORT", "QUERY_PLAN", "SPOOL")),
 ]
 
 
@@ -170,6 +172,13 @@ def test_orders_follow_the_spoolers_protocol(state: int, refused: tuple[str, ...
     status(tr, 3, scope=1)
     assert isinstance(tr.on_sample("MissionSpoolCommand", order(allowed[0], **extra),
                                    SCTX)[0], Command)
+
+
+def test_a_new_mission_may_be_run_before_its_state_is_reported() -> None:
+    tr = MissionSpoolerTranslator()
+    status(tr, 7)  # the last mission finished
+    assert sent(tr, order("SPOOL", mission_id=8, tasks=TASKS)).name == "SpoolMission"
+    assert sent(tr, order("RUN", mission_id=8)).name == "RunMission"
 
 
 def test_status_reports_are_named() -> None:
