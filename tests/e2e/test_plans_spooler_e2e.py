@@ -184,7 +184,7 @@ def test_a_mission_is_spooled_run_paused_resumed_and_aborted(domain_id: int,
         held = await missions.until(lambda s: [m["mission_id"] for m in s["missions"]] == [7]
                                     and s["plan_mission_id"] == 7, "the mission and its plan")
         assert held["missions"][0]["creator"] == str(RELAY)
-        await missions.until(lambda s: s["preference"] == 1.0, "the spooling preference")
+        assert held["preference"] == 1.0  # ReportSpoolingPreferences, kept by the merge
         (root,) = held["plan"]  # the sim reports its mission's first task
         assert root["task_id"] == 1 and root["child_tasks"] == [1]
         assert [(m["uid"], m["message"], m["blocking"]) for m in root["messages"]] == [
