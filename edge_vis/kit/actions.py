@@ -13,7 +13,10 @@ The engine never performs anything itself: it returns these from
 Translators return :class:`Publish`, :class:`Command`, :class:`DeclareVehicle` and
 :class:`EmergencyRequest`; the engine turns a ``Command`` into a ``SendMessage`` only when
 the operator holds control, the vehicle's component is controlled and ready, and the rate
-and lifespan allow it.
+and lifespan allow it. A translator returns a ``SendMessage`` itself only for a follow-up
+query a report calls for (the elements of a list that changed, the plan of a new mission),
+to the report's sender with traffic class ``telemetry``: a query needs no control, and the
+link paces and queues it like the engine's own queries.
 """
 
 from __future__ import annotations
