@@ -19,9 +19,10 @@ The service's protocol (the JSIDL) lets only the controlling client spool and ch
 mission, and each order only in some states: SPOOL when no mission is held (INIT,
 ABORTED, FINISHED), RUN when one is held or PAUSED (INIT, PAUSED), PAUSE while RUNNING,
 RESUME and the Insert/Remove orders while PAUSED; ABORT and QUERY_PLAN at any time. INIT
-is both "nothing held" and "held, not run" in ReportMissionStatus, so it allows both. An order the last reported mission state does not allow
-is refused here, with the reason, as ``SpoolerStatus`` scope ``COMMAND`` status
-``REFUSED``; the vehicle would ignore it silently.
+is both "nothing held" and "held, not run" in ReportMissionStatus, so it allows both. An
+order the last reported mission state does not allow is refused here, with the reason,
+as ``SpoolerStatus`` scope ``COMMAND`` status ``REFUSED``; the vehicle would ignore it
+silently.
 """
 
 from __future__ import annotations
