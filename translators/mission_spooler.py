@@ -45,8 +45,8 @@ from edge_vis.kit import (
     Put,
     ReportRule,
     RuleTranslator,
-    SendMessage,
     TranslatorContext,
+    follow_up_query,
     label,
     number,
 )
@@ -249,9 +249,8 @@ class MissionSpoolerTranslator(RuleTranslator):
             asked &= held  # a mission removed and spooled again is read again
             for mission_id in sorted(held - asked)[:PLANS_ASKED_PER_CHANGE]:
                 asked.add(mission_id)
-                actions.append(SendMessage(ctx.source, "QueryMissionPlan",
-                                           {"mission_id": mission_id},
-                                           traffic_class="telemetry"))
+                actions.append(follow_up_query(ctx.source, "QueryMissionPlan",
+                                               {"mission_id": mission_id}))
         return actions
 
     def on_sample(self, topic: str, sample: Mapping[str, Any],

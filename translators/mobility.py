@@ -68,9 +68,9 @@ from edge_vis.kit import (
     ReportRule,
     ReportSpec,
     RuleTranslator,
-    SendMessage,
     TranslatorContext,
     code_of,
+    follow_up_query,
     label,
     number,
     setting,
@@ -716,8 +716,7 @@ class PlanReadBack:
         elif name == "ReportElementCount":
             plan.count = int(fields.get("element_count", 0))
             if plan.count != len(plan.order):
-                actions.append(SendMessage(ctx.source, "QueryElementList", {},
-                                           traffic_class="telemetry"))
+                actions.append(follow_up_query(ctx.source, "QueryElementList"))
         else:
             plan.current = plan_element(name, fields)
         actions += self._ask(ctx.source, plan)
@@ -728,7 +727,7 @@ class PlanReadBack:
         """Read ``component``'s whole list again (its elements may have been replaced)."""
         plan = self.plans.setdefault((vehicle_id, component), _HeldPlan())
         plan.stale = set(plan.elements)
-        return [SendMessage(component, "QueryElementList", {}, traffic_class="telemetry")]
+        return [follow_up_query(component, "QueryElementList")]
 
     def on_query(self, sample: Mapping[str, Any], ctx: TranslatorContext) -> list[Action]:
         """``PlanQuery``: count and list of every list driver, through the engine (the
@@ -773,8 +772,7 @@ class PlanReadBack:
         out: list[Action] = []
         for uid in missing[:max(0, room)]:
             plan.asking.add(uid)
-            out.append(SendMessage(component, "QueryElement", {"element_uid": uid},
-                                   traffic_class="telemetry"))
+            out.append(follow_up_query(component, "QueryElement", {"element_uid": uid}))
         return out
 
     @staticmethod

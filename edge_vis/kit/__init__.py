@@ -31,6 +31,7 @@ from edge_vis.kit.actions import (
     Publish,
     SendMessage,
     ShutdownComplete,
+    follow_up_query,
 )
 from edge_vis.kit.contract import (
     STATUS_NAMES,
@@ -113,6 +114,7 @@ __all__ = [
     "describe_rules",
     "extract",
     "flags",
+    "follow_up_query",
     "get_path",
     "image_chunks",
     "label",
