@@ -82,6 +82,7 @@ def test_kinds_decide_direction() -> None:
         "JointCommand", "EndEffectorCommand", "DeviceCommand", "PlatformCommand",
         "VectorCommand", "AccelerationLimitCommand", "PoseCommand", "EmergencyCommand",
         "ManagementCommand",
+        "PlanQuery", "PathSegmentPlan", "MissionSpoolCommand",
         # IOP and UGV
         "HandoffRequest", "HandoffResponse", "CostMapRequest", "NoGoZoneCommand",
         "DigitalResourceCommand", "CbrnCommand", "SkidSteerCommand", "AckermannCommand",
