@@ -26,8 +26,8 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 from edge_vis import plugins
-from edge_vis.config import TranslatorSelection, load_profile
 from edge_vis.catalogue import Catalogue, default_catalogue
+from edge_vis.config import TranslatorSelection, load_profile
 from edge_vis.engine.handled import ENGINE_DECLINED, ENGINE_HANDLED, ENGINE_RECEIVES
 from edge_vis.engine.manager import TranslationManager
 from edge_vis.jaus.messages import BUILTIN_SETS

@@ -91,6 +91,8 @@ _STANDARD_KINDS: dict[type[IdlStruct], TopicKind] = {
     model.HealthStatus: TopicKind.STATE,
     model.RangeScan: TopicKind.TELEMETRY,
     model.SensorInfo: TopicKind.STATE,
+    model.SensorState: TopicKind.STATE,
+    model.SensorCommand: TopicKind.COMMAND,
     model.ImageProduct: TopicKind.PRODUCT,
     model.ImageData: TopicKind.BULK,
     model.TransferStatus: TopicKind.STATE,

@@ -10,10 +10,10 @@ The engine never performs anything itself: it returns these from
 * :class:`ShutdownComplete` - every goodbye message has been emitted (and answered, or
   waited for long enough); the runtime may close links.
 
-Translators return :class:`Publish`, :class:`Command`, :class:`DeclareVehicle` and
-:class:`EmergencyRequest`; the engine turns a ``Command`` into a ``SendMessage`` only when
-the operator holds control, the vehicle's component is controlled and ready, and the rate
-and lifespan allow it.
+Translators return :class:`Publish`, :class:`Command`, :class:`DeclareVehicle`,
+:class:`EmergencyRequest` and :class:`Dropped` (from ``on_message``); the engine turns a
+``Command`` into a ``SendMessage`` only when the operator holds control, the vehicle's
+component is controlled and ready, and the rate and lifespan allow it.
 """
 
 from __future__ import annotations
@@ -125,6 +125,16 @@ class EmergencyRequest:
 
 
 @dataclass(frozen=True, slots=True)
+class Dropped:
+    """Part of a message a translator could not use, and why (``reason``: short and fixed,
+    it names a counter: ``"range compression bzip2: undecodable"``). The relay counts it per
+    translator and reason and logs it; the rest of the message is translated."""
+
+    reason: str
+    detail: str = ""
+
+
+@dataclass(frozen=True, slots=True)
 class ShutdownComplete:
     """The engine has said goodbye to every vehicle; links may close."""
 
@@ -132,4 +142,4 @@ class ShutdownComplete:
 
 
 Action = Union[SendMessage, Publish, Command, DeclareVehicle, EmergencyRequest,  # noqa: UP007
-               ShutdownComplete]
+               Dropped, ShutdownComplete]
