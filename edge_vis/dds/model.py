@@ -360,6 +360,31 @@ class SensorCommand(IdlStruct, typename="edge_vis::SensorCommand"):
 
 
 @dataclass
+class HmiInput(IdlStruct, typename="edge_vis::HmiInput"):
+    """An input device of an operator interface on the vehicle's JAUS network (a hand-held
+    controller, a panel): ``device`` is ``keyboard``, ``pointer``, ``dcm_<ref>`` (a
+    digital control) or ``analog_<ref>`` (a joystick; axes -1..1 of full deflection);
+    ``state`` the last action (``PRESSED``, ``LEFT DOWN``...), ``code`` the key or
+    control, ``x``/``y`` the pointer position (viewport pixels)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    device: str
+    key("device")
+    name: str = ""
+    state: str = ""
+    code: int32 = 0
+    x: float64 = NAN
+    y: float64 = NAN
+    z: float64 = NAN
+    roll: float64 = NAN
+    pitch: float64 = NAN
+    yaw: float64 = NAN
+    valid: bool = True
+    timestamp_ms: int64 = 0
+
+
+@dataclass
 class TransferStatus(IdlStruct, typename="edge_vis::TransferStatus"):
     """Progress of one bulk transfer; ``rate_bps`` is bits per second."""
 
@@ -1042,6 +1067,7 @@ STRUCTS: tuple[type[IdlStruct], ...] = (
     SensorInfo,
     SensorState,
     SensorCommand,
+    HmiInput,
     ImageProduct,
     ImageData,
     TransferStatus,

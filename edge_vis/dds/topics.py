@@ -93,6 +93,7 @@ _STANDARD_KINDS: dict[type[IdlStruct], TopicKind] = {
     model.SensorInfo: TopicKind.STATE,
     model.SensorState: TopicKind.STATE,
     model.SensorCommand: TopicKind.COMMAND,
+    model.HmiInput: TopicKind.STATE,
     model.ImageProduct: TopicKind.PRODUCT,
     model.ImageData: TopicKind.BULK,
     model.TransferStatus: TopicKind.STATE,
