@@ -35,6 +35,8 @@ ANALOG_CONTROL = HMI + "AnalogControl"
 #: full scale of an analog axis by the variant alternative carrying it
 FULL_SCALE = {"byte": 127.0, "short_integer": 32767.0, "integer": 2147483647.0}
 BUTTONS = {0: "LEFT", 1: "MIDDLE", 2: "RIGHT"}
+#: the analog device the relay asks about (QueryAnalogAction names one; all six axes)
+ANALOG_DEVICE = 1
 
 
 def _axis(name: str) -> Computed:
@@ -60,9 +62,11 @@ def _valid(f: Mapping[str, Any]) -> bool:
 
 
 def _input(message: str, query: str, service: str, fields: Mapping[str, Any],
-           split: str = "", doc: str = "") -> ReportRule:
+           split: str = "", doc: str = "",
+           query_fields: Mapping[str, Any] | None = None) -> ReportRule:
     return ReportRule(message, "HmiInput", fields, query=query, service=service, rate=1.0,
                       on_change=True, split=split, keys=("device",), merge=True,
+                      query_fields=query_fields or {},
                       doc=doc or "every change (an event), merged per device")
 
 
@@ -86,7 +90,10 @@ REPORT_RULES: tuple[ReportRule, ...] = (
         "device": Computed(lambda f: f"analog_{f['reference']}", "analog_<reference>"),
         "code": From("reference"),
         "x": _axis("longitudinal"), "y": _axis("lateral"), "z": _axis("vertical"),
-        "roll": _axis("roll"), "pitch": _axis("pitch"), "yaw": _axis("yaw")}),
+        "roll": _axis("roll"), "pitch": _axis("pitch"), "yaw": _axis("yaw")},
+        query_fields={"presence_vector": 0x3F, "analog_reference": ANALOG_DEVICE},
+        doc=f"every change (an event) of device {ANALOG_DEVICE}: the query names one "
+            f"device; events of others are translated too"),
     _input("ReportAnalogDevices", "QueryAnalogDevices", ANALOG_CONTROL, {
         "device": Computed(lambda e: f"analog_{e['reference']}", "analog_<reference>"),
         "code": From("reference"), "name": From("name", default="")},
