@@ -257,7 +257,7 @@ def decode_as(catalogue: Any, message: str, type_name: str, data: bytes) -> Any:
     of ``message``: for a JAUS value carried as bytes inside another (the JSIDL's
     ``field_format``: compressed scan points are a ``RangeSensorDataPointList``). Raises
     ValueError when no such type is there or the bytes do not fit it exactly."""
-    field_type = _named(catalogue.by_name(message).body, type_name)
+    field_type = named_type(catalogue.by_name(message).body, type_name)
     if field_type is None:
         raise ValueError(f"{message} has no type named {type_name!r}")
     try:
@@ -269,8 +269,9 @@ def decode_as(catalogue: Any, message: str, type_name: str, data: bytes) -> Any:
     return value
 
 
-def _named(node: Any, name: str) -> Any:
-    """The first type named ``name`` in ``node`` (depth first), or None."""
+def named_type(node: Any, name: str) -> Any:
+    """The first record, list or variant named ``name`` (its JSIDL name) in the field type
+    ``node`` (a message body), depth first; None when there is none."""
     if getattr(node, "name", None) == name and isinstance(node, Record | List | Variant):
         return node
     if isinstance(node, Record):
@@ -282,7 +283,7 @@ def _named(node: Any, name: str) -> Any:
     else:
         return None
     for child in children:
-        found = _named(child, name)
+        found = named_type(child, name)
         if found is not None:
             return found
     return None

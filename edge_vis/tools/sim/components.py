@@ -33,6 +33,7 @@ WAYPOINT_LIST_DRIVER = MOBILITY + "GlobalWaypointListDriver"
 RANGE_SENSOR = ENV + "RangeSensor"
 VISUAL_SENSOR = ENV + "VisualSensor"
 STILL_IMAGE = ENV + "StillImage"
+DIGITAL_VIDEO = ENV + "DigitalVideo"
 VENDOR_DISCOVERY = UUV + "VendorDiscovery"
 OCEAN_ENVIRONMENT = UUV + "OceanEnvironmentSensor"
 ATR_NOTIFIER = UUV + "AtrImageNotifier"
@@ -60,6 +61,7 @@ UGV_LAYOUT: tuple[ComponentSpec, ...] = (
     )),
     ComponentSpec(3, "Sensors", (
         TRANSPORT, EVENTS, ACCESS_CONTROL, RANGE_SENSOR, VISUAL_SENSOR, STILL_IMAGE,
+        DIGITAL_VIDEO,
     )),
 )
 
