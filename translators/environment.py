@@ -255,8 +255,15 @@ def _state(message: str, list_name: str, kind: str, query: str, service: str,
     rule = _info(message, list_name, _configuration(kind), query, service, query_list, pv)
     return ReportRule(message, "SensorState", rule.fields, query=query, service=service,
                       query_fields=rule.query_fields, rate=rule.rate, on_change=True,
-                      split=list_name, keys=("sensor_id",), merge=True,
-                      doc="one sample per sensor; merged with its confirmations")
+                      split=list_name, keys=("sensor_id", "kind"), merge=True,
+                      doc="one sample per sensor and kind; merged with its confirmations")
+
+
+#: ConfirmSensorConfiguration error record -> the kind of sensor it answers for
+ERROR_KINDS = {"range_sensor_error_rec": "range", "visual_sensor_error_rec": "visual",
+               "digital_video_sensor_error_rec": "digital_video",
+               "analog_video_sensor_error_rec": "analog_video",
+               "still_image_sensor_error_rec": "still_image"}
 
 
 def _confirmation(element: Mapping[str, Any]) -> str:
@@ -461,9 +468,11 @@ class EnvironmentTranslator(RuleTranslator):
         ReportRule(
             "ConfirmSensorConfiguration", "SensorState",
             {"sensor_id": From("*.sensor_id"),
+             "kind": Computed(lambda e: ERROR_KINDS.get(next(iter(e)), ""),
+                              "the error record's kind; accepted: the kind last configured"),
              "confirmation": Computed(_confirmation, "accepted | refused: <error>: "
                                                      "<error_message>")},
-            split="confirm_sensor_list", keys=("sensor_id",), merge=True,
+            split="confirm_sensor_list", keys=("sensor_id", "kind"), merge=True,
             doc="the answer to the last Set...SensorConfiguration, per sensor"),
     )
     extra_publishes = ("ImageData",)
@@ -480,6 +489,11 @@ class EnvironmentTranslator(RuleTranslator):
                        ReportSpec(geometry.report, geometry.query, RANGE_SENSOR,
                                   dict(geometry.query_fields), geometry.rate,
                                   geometry.on_change))
+
+    def __init__(self) -> None:
+        super().__init__()
+        #: (vehicle, sensor) -> the kind the last configuration sent to it was for
+        self._configured: dict[tuple[str, int], str] = {}
 
     def apply_options(self, options: EnvironmentOptions) -> None:
         """Poll still images, and ask for compressed scans, as the profile says."""
@@ -505,6 +519,8 @@ class EnvironmentTranslator(RuleTranslator):
     ) -> list[Action]:
         if name == COMPRESSED_RULE.message and ctx.vehicle is not None:
             return self._compressed_scans(fields, ctx)
+        if name == "ConfirmSensorConfiguration" and ctx.vehicle is not None:
+            return self._confirmations(fields, ctx)
         if name != "ReportStillImageData" or ctx.vehicle is None:
             return super().on_message(name, fields, ctx)
         (rule,) = self._by_message[name]
@@ -545,10 +561,30 @@ class EnvironmentTranslator(RuleTranslator):
                 "timestamp_ms": ctx.timestamp_ms}))
         return actions
 
+    def _confirmations(self, fields: Mapping[str, Any],
+                       ctx: TranslatorContext) -> list[Action]:
+        """SensorState per confirmed sensor: an accepted one carries no kind, so it is the
+        kind this relay last configured for that sensor."""
+        assert ctx.vehicle is not None
+        vehicle = ctx.vehicle.vehicle_id
+        actions: list[Action] = []
+        for element in fields.get("confirm_sensor_list") or []:
+            (record, values), = element.items()
+            sensor_id = int(values["sensor_id"])
+            kind = ERROR_KINDS.get(record) or self._configured.get((vehicle, sensor_id), "")
+            actions.append(Publish("SensorState", self._merged("SensorState", {
+                "vehicle_id": vehicle, "sensor_id": sensor_id, "kind": kind,
+                "confirmation": _confirmation(element), "timestamp_ms": ctx.timestamp_ms})))
+        return actions
+
     def on_sample(
         self, topic: str, sample: Mapping[str, Any], ctx: TranslatorContext
     ) -> list[Action]:
         actions = super().on_sample(topic, sample, ctx)
+        for command in actions:  # a confirmation names no kind: remember what was set
+            if isinstance(command, Command) and command.kind == "sensor_configuration":
+                kind = str(sample.get("kind", "")).strip().lower()
+                self._configured[(command.vehicle_id, _sensor_id(sample))] = kind
         streams = [a for a in actions if isinstance(a, Command)
                    and a.name == "ControlDigitalVideoSensorStream"]
         for command in streams:  # JAUS reports no stream state: say what was asked for
@@ -561,7 +597,7 @@ class EnvironmentTranslator(RuleTranslator):
 
     def _merged(self, topic: str, sample: dict[str, Any]) -> dict[str, Any]:
         """``sample`` merged into what this topic's instance said before (as ``merge``)."""
-        key = (topic, (sample["vehicle_id"], sample["sensor_id"]))
+        key = (topic, (sample["vehicle_id"], sample["sensor_id"], sample["kind"]))
         merged = self._latest.setdefault(key, {})
         merged.update(sample)
         return dict(merged)

@@ -328,15 +328,17 @@ class SensorInfo(IdlStruct, typename="edge_vis::SensorInfo"):
 
 @dataclass
 class SensorState(IdlStruct, typename="edge_vis::SensorState"):
-    """What a sensor is set to: its configuration as ``name=value`` pairs (JAUS field
-    names and values), the answer to the last configuration sent, and the video stream
-    state last asked for through the relay (JAUS reports no stream state)."""
+    """What a sensor of one ``kind`` (visual, digital_video, analog_video, still_image,
+    range) is set to: its configuration as ``name=value`` pairs (JAUS field names and
+    values), the answer to the last configuration sent, and the video stream state last
+    asked for through the relay (JAUS reports no stream state)."""
 
     vehicle_id: str
     key("vehicle_id")
     sensor_id: uint16
     key("sensor_id")
-    kind: str = ""
+    kind: str
+    key("kind")
     configuration: str = ""
     confirmation: str = ""
     stream: str = ""

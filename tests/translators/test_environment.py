@@ -26,7 +26,8 @@ RULES = EnvironmentTranslator.report_rules
 
 
 #: compressed scans are decoded by hand (tests below), not by the rule's specs
-PLAIN = [r for r in RULES if r.message != "ReportRangeSensorCompressedData"]
+PLAIN = [r for r in RULES if r.message not in ("ReportRangeSensorCompressedData",
+                                                "ConfirmSensorConfiguration")]
 
 
 @pytest.mark.parametrize("rule", PLAIN, ids=[r.message for r in PLAIN])
@@ -250,6 +251,9 @@ def test_confirmation_and_configuration_merge_into_sensor_state() -> None:
               if a.topic == "SensorState"]
     assert states[0]["kind"] == "visual"
     assert states[0]["configuration"].startswith("sensor_state=0, zoom_level=40")
+    configure = {"vehicle_id": "veh1", "operator_id": "op1", "sensor_id": 1,
+                 "action": "configure", "kind": "range", "settings": "update_rate=5"}
+    assert tr.on_sample("SensorCommand", configure, CTX)  # sensor 1: range was configured
     confirm = decoded("ConfirmSensorConfiguration", {"request_id_rec": {"request_id": 0},
                                                      "confirm_sensor_list": [
         {"sensor_id_rec": {"sensor_id": 1}},
@@ -257,7 +261,8 @@ def test_confirmation_and_configuration_merge_into_sensor_state() -> None:
                                      "error_message": "zoom out of range"}}]})
     actions = tr.on_message("ConfirmSensorConfiguration", confirm, CTX)
     by_sensor = {a.sample["sensor_id"]: a.sample for a in actions}
-    assert by_sensor[1]["confirmation"] == "accepted"
+    assert by_sensor[1]["confirmation"] == "accepted" and by_sensor[1]["kind"] == "range"
+    assert by_sensor[2]["kind"] == "visual"  # from its error record
     assert by_sensor[2]["confirmation"] == ("refused: invalid parameter (code 3): "
                                             "zoom out of range")
     assert by_sensor[2]["configuration"] == states[0]["configuration"]  # merged, kept
