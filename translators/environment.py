@@ -290,39 +290,16 @@ def _stream(sample: Mapping[str, Any]) -> int:
     return _stream_code("PLAY" if action == "START" else action)
 
 
-def _is_configure(kind: str) -> Callable[[Any], bool]:
-    def match(value: Any) -> bool:
-        return str(value or "").strip().lower() == kind
-    match.__doc__ = kind
-    return match
-
-
-def _is_action(*names: str) -> Callable[[Any], bool]:
-    def match(value: Any) -> bool:
-        return str(value or "").strip().lower() in names
-    match.__doc__ = " | ".join(names)
-    return match
-
-
 def _sensor_id(sample: Mapping[str, Any]) -> int:
     return int(sample.get("sensor_id") or 0)
 
 
 COMMAND_RULES: tuple[CommandRule, ...] = (
-    *(CommandRule("SensorCommand", message, service, "sensor_configuration",
-                  {"request_id_rec.request_id": Build("sensor_id", lambda s: 0,
-                                                      "0: confirms are matched by sensor"),
-                   list_name: Build("sensor_id, settings", parse_settings(kind),
-                                    "one sensor: sensor_id and the name=value settings")},
-                  when={"action": _is_action("configure"), "kind": _is_configure(kind)},
-                  needs_ready=False,
-                  doc="answered by ConfirmSensorConfiguration")
-      for kind, (message, service, list_name, _names) in CONFIGURABLE.items()),
     CommandRule("SensorCommand", "ControlDigitalVideoSensorStream", DIGITAL_VIDEO,
                 "video_stream",
                 {"sensor_id": Build("sensor_id", _sensor_id),
                  "stream_state": Build("action", _stream, "play (start) 0, pause 1, stop 2")},
-                when={"action": _is_action("play", "start", "pause", "stop")},
+                when={"action": ("play", "start", "pause", "stop")},
                 needs_ready=False,
                 doc="the state asked for is published in SensorState.stream (JAUS reports "
                     "no stream state)"),
@@ -332,8 +309,17 @@ COMMAND_RULES: tuple[CommandRule, ...] = (
                                              "report_coordinate_system": 0,
                                              "query_presence_vector": 0}],
                     "one sensor, native coordinates")},
-                when={"action": _is_action("capture")}, needs_ready=False,
+                when={"action": "capture"}, needs_ready=False,
                 doc="answered by ReportStillImageData (ImageProduct + ImageData)"),
+    *(CommandRule("SensorCommand", message, service, "sensor_configuration",
+                  {"request_id_rec.request_id": Build("sensor_id", lambda s: 0,
+                                                      "0: confirms are matched by sensor"),
+                   list_name: Build("sensor_id, settings", parse_settings(kind),
+                                    "one sensor: sensor_id and the name=value settings")},
+                  when={"action": "configure", "kind": kind},
+                  needs_ready=False,
+                  doc="answered by ConfirmSensorConfiguration")
+      for kind, (message, service, list_name, _names) in CONFIGURABLE.items()),
 )
 
 _MOUNT = "geometric_properties_variant.*."
