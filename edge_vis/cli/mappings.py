@@ -182,8 +182,8 @@ def markdown(rows: list[dict[str, Any]], catalogue: Catalogue | None = None) -> 
     ]
     if catalogue is not None:
         out.insert(-1, f"On the wire: {total['wire_messages']} JAUS messages (translated, "
-                       f"queried, or handled by the engine: {total['engine_handled']}); "
-                       f"{total['public_services_covered']} of the "
+                       f"queried, or among the {total['engine_handled']} more the engine "
+                       f"handles itself); {total['public_services_covered']} of the "
                        f"{total['public_services']} public non-client service URIs "
                        f"covered ({total['public_services_covered_percent']:g} %).")
     translators = list(dict.fromkeys(r["translator"] for r in rows))
@@ -204,7 +204,25 @@ def markdown(rows: list[dict[str, Any]], catalogue: Catalogue | None = None) -> 
         if skipped:
             out += ["", "Not translated:", ""]
             out += [f"- {r['message']}: {r['doc']}" for r in skipped]
+    if catalogue is not None:
+        out += _engine_section(rows, catalogue)
     return "\n".join(out) + "\n"
+
+
+def _engine_section(rows: list[dict[str, Any]], catalogue: Catalogue) -> list[str]:
+    """The core messages the engine handles itself or leaves alone, and any catalogue
+    message with neither a row nor a reason."""
+    translated = {r["message"] for r in rows if r["direction"] != "none"}
+    cover = coverage(rows, catalogue)
+    out = ["", "## engine", "",
+           "Handled by the engine itself (discovery, access control, events, liveness, time, "
+           "emergency stop): " + ", ".join(sorted(ENGINE_HANDLED - translated)) + ".",
+           "", "Not used:", ""]
+    out += [f"- {name}: {why}" for name, why in ENGINE_DECLINED.items()]
+    if cover["unexplained"]:
+        out += ["", f"Not translated, no reason given ({len(cover['unexplained'])}): "
+                    + ", ".join(cover["unexplained"]) + "."]
+    return out
 
 
 def _field(f: Mapping[str, Any], direction: str) -> str:
