@@ -147,6 +147,7 @@ def _info(message: str, list_name: str, fields: Mapping[str, Any], query: str, s
                       keys=("sensor_id",), merge=True, stamp=False,
                       doc="one sample per sensor; merged with the sensor's other reports")
 
+
 #: DataCompressionEnum (ReportRangeSensorCompressedData) -> name, decompressor
 COMPRESSIONS: dict[int, tuple[str, Callable[[bytes], bytes]]] = {
     0: ("none", bytes),
@@ -300,7 +301,6 @@ COMMAND_RULES: tuple[CommandRule, ...] = (
                 {"sensor_id": Build("sensor_id", _sensor_id),
                  "stream_state": Build("action", _stream, "play (start) 0, pause 1, stop 2")},
                 when={"action": ("play", "start", "pause", "stop")},
-                needs_ready=False,
                 doc="the state asked for is published in SensorState.stream (JAUS reports "
                     "no stream state)"),
     CommandRule("SensorCommand", "QueryStillImageData", STILL_IMAGE, "still_capture",
@@ -309,15 +309,14 @@ COMMAND_RULES: tuple[CommandRule, ...] = (
                                              "report_coordinate_system": 0,
                                              "query_presence_vector": 0}],
                     "one sensor, native coordinates")},
-                when={"action": "capture"}, needs_ready=False,
+                when={"action": "capture"},
                 doc="answered by ReportStillImageData (ImageProduct + ImageData)"),
-    *(CommandRule("SensorCommand", message, service, "sensor_configuration",
+    *(CommandRule("SensorCommand", message, service, f"sensor_configuration_{kind}",
                   {"request_id_rec.request_id": Build("sensor_id", lambda s: 0,
                                                       "0: confirms are matched by sensor"),
                    list_name: Build("sensor_id, settings", parse_settings(kind),
                                     "one sensor: sensor_id and the name=value settings")},
                   when={"action": "configure", "kind": kind},
-                  needs_ready=False,
                   doc="answered by ConfirmSensorConfiguration")
       for kind, (message, service, list_name, _names) in CONFIGURABLE.items()),
 )
@@ -568,7 +567,7 @@ class EnvironmentTranslator(RuleTranslator):
     ) -> list[Action]:
         actions = super().on_sample(topic, sample, ctx)
         for command in actions:  # a confirmation names no kind: remember what was set
-            if isinstance(command, Command) and command.kind == "sensor_configuration":
+            if isinstance(command, Command) and command.kind.startswith("sensor_configuration"):
                 kind = str(sample.get("kind", "")).strip().lower()
                 self._configured[(command.vehicle_id, _sensor_id(sample))] = kind
         streams = [a for a in actions if isinstance(a, Command)

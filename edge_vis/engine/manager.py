@@ -137,9 +137,9 @@ class TranslationManager:
             actions = list(tr.on_message(name, fields, ctx))
         except Exception as exc:
             return self._failed(tr, f"JAUS {name}", exc, ctx)
-        return self._count_drops(tr, name, actions, ctx)
+        return self._count_drops(tr, f"JAUS {name}", actions, ctx)
 
-    def _count_drops(self, tr: Translator, name: str, actions: list[Action],
+    def _count_drops(self, tr: Translator, what: str, actions: list[Action],
                      ctx: TranslatorContext) -> list[Action]:
         """Count and log what the translator dropped; pass the rest on."""
         if not any(isinstance(a, Dropped) for a in actions):
@@ -150,7 +150,7 @@ class TranslationManager:
             if isinstance(action, Dropped):
                 self.drops[(who, action.reason)] += 1
                 self._log.warning(f"drop {who} {action.reason}", ctx.now,
-                                  "translator %s dropped part of %s from %s: %s%s", who, name,
+                                  "translator %s dropped part of %s from %s: %s%s", who, what,
                                   vehicle, action.reason,
                                   f" ({action.detail})" if action.detail else "")
         return [a for a in actions if not isinstance(a, Dropped)]
@@ -162,16 +162,18 @@ class TranslationManager:
         if tr is None:
             return []
         try:
-            return list(tr.on_sample(topic, sample, ctx))
+            actions = list(tr.on_sample(topic, sample, ctx))
         except Exception as exc:
             return self._failed(tr, f"DDS {topic}", exc, ctx)
+        return self._count_drops(tr, f"DDS {topic}", actions, ctx)
 
     def on_vehicle(self, change: str, ctx: TranslatorContext) -> list[Action]:
         """Tell every translator that the vehicle in ``ctx`` changed."""
         out: list[Action] = []
         for tr in self.translators:
             try:
-                out.extend(tr.on_vehicle(change, ctx))
+                out.extend(self._count_drops(tr, f"vehicle {change}",
+                                             list(tr.on_vehicle(change, ctx)), ctx))
             except Exception as exc:
                 self._failed(tr, f"vehicle {change}", exc, ctx)
         return out

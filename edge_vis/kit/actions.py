@@ -11,7 +11,7 @@ The engine never performs anything itself: it returns these from
   waited for long enough); the runtime may close links.
 
 Translators return :class:`Publish`, :class:`Command`, :class:`DeclareVehicle`,
-:class:`EmergencyRequest` and :class:`Dropped` (from ``on_message``); the engine turns a
+:class:`EmergencyRequest` and :class:`Dropped`; the engine turns a
 ``Command`` into a ``SendMessage`` only when the operator holds control, the vehicle's
 component is controlled and ready, and the rate and lifespan allow it.
 """
