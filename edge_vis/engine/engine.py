@@ -236,6 +236,13 @@ class Engine:
             self._handle(vehicle, source, name, fields, now)
         self._timer_pass.run(now)
 
+    def dialects_of(self, address: JausAddress) -> tuple[str, ...]:
+        """The message dialects the vehicle of ``address`` speaks (its profile's, or
+        recognised from its services; none for an unknown subsystem): decode what it sends
+        and encode what goes to it with these."""
+        vehicle = self._state.vehicles.get(address.subsystem)
+        return () if vehicle is None else self._state.dialects(vehicle)
+
     def receive_sample(self, topic: str, sample: Mapping[str, Any], now: float) -> None:
         """A DDS sample (as a dict) of ``topic`` arrived at ``now``."""
         state = self._state
@@ -250,6 +257,26 @@ class Engine:
             vehicle = state.by_id.get(str(sample.get("vehicle_id", "")))
             ctx = self._views.context(vehicle, now)
             self._apply(self.manager.on_sample(topic, sample, ctx), now)
+        self._timer_pass.run(now)
+
+    def refuse_sample(self, topic: str, sample: Mapping[str, Any], reason: str,
+                      now: float) -> None:
+        """A DDS command the shell refused before it reached the rules (its claimed
+        ``operator_id`` is not the sender DDS Security proved): counted, and kept as the
+        vehicle's ``last_rejection`` in ``ControlStatus`` so the operators see it."""
+        if not self._finder.started:
+            self._finder.start(now)
+        state = self._state
+        if state.done:
+            return
+        state.counters["samples_refused_sender"] += 1
+        vehicle = state.by_id.get(str(sample.get("vehicle_id", "")))
+        if vehicle is not None:
+            arbitration = vehicle.arbitration
+            new = arbitration.last_rejection != f"{topic}: {reason}"
+            arbitration.reject(f"{topic}: {reason}")
+            if new:  # a flood of refusals must not become a flood of ControlStatus
+                self._changed(vehicle, "control", now)
         self._timer_pass.run(now)
 
     def operator_lost(self, operator_id: str, now: float) -> None:

@@ -74,6 +74,8 @@ class Vehicle:
     announced_by: VehicleProfile | None = None
     #: the emergency stop set through the relay, until cleared (:mod:`edge_vis.engine.estop`)
     estop: Estop | None = None
+    #: (services, the dialects they were recognised as): recognised once per change
+    dialect_cache: tuple[tuple[Service, ...], tuple[str, ...]] | None = None
 
     def __post_init__(self) -> None:
         self.discovery.label = self.vehicle_id

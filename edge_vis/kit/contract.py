@@ -147,6 +147,9 @@ class VehicleView:
     emergency_reason: str = ""
     holders: tuple[HolderView, ...] = ()
     clock: ClockView | None = None
+    #: the message dialects it speaks (``manipulator-1.0``, ``iop``): its messages are
+    #: decoded and encoded with those definitions
+    dialects: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
