@@ -24,6 +24,7 @@ READ_TOPICS: tuple[str, ...] = (
     "ControlStatus", "MissionStatus", "LinkStatus", "RangeScan", "ImageProduct",
     "EnvironmentalData", "TransferStatus", "VehicleClock",
     "VehiclePlan", "SpoolerStatus",
+    "SensorState",
     "HandoffStatus",
 )
 #: command topics the monitor writes
@@ -97,6 +98,8 @@ class VehicleRow:
     emergency_operator: str = ""
     emergency_reason: str = ""
     last_rejection: str = ""
+    #: camera (sensor id) -> its video stream state as last asked for (PLAY, PAUSE, STOP)
+    streams: dict[int, str] = field(default_factory=dict)
     #: hand-off requests: (request id, requester, authority, state, explanation)
     handoffs: list[tuple[int, str, int, str, str]] = field(default_factory=list)
     samples: Counter[str] = field(default_factory=Counter)
@@ -218,6 +221,10 @@ class FleetView:
         row.last_image = s.get("file_name", "") or str(s.get("image_id", ""))
         row.last_image_size = int(s.get("size_bytes", 0) or 0)
 
+    def _on_SensorState(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        if s.get("stream"):
+            row.streams[int(s.get("sensor_id", 0) or 0)] = str(s["stream"])
+
     def _on_EnvironmentalData(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
         if s.get("depth") is not None:
             row.depth = s["depth"]
@@ -277,6 +284,9 @@ class FleetView:
             if row.last_image:
                 size = f" ({row.last_image_size // 1024} KiB)" if row.last_image_size else ""
                 extra.append(f"image {row.last_image}{size}")
+            if row.streams:
+                extra.append("camera " + " ".join(f"{sensor}:{state.lower()}" for sensor, state
+                                                  in sorted(row.streams.items())))
             if row.went_offline:
                 extra.append(f"dropouts {row.went_offline} recovered {row.recovered}")
             held = [f"{c} by {'relay' if relay else who}({authority})"

@@ -83,6 +83,7 @@ def test_kinds_decide_direction() -> None:
         "VectorCommand", "AccelerationLimitCommand", "PoseCommand", "EmergencyCommand",
         "ManagementCommand",
         "PlanQuery", "PathSegmentPlan", "MissionSpoolCommand",
+        "SensorCommand",
         # IOP and UGV
         "HandoffRequest", "HandoffResponse", "CostMapRequest", "NoGoZoneCommand",
         "DigitalResourceCommand", "CbrnCommand", "SkidSteerCommand", "AckermannCommand",

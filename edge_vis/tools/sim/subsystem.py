@@ -49,7 +49,7 @@ from edge_vis.catalogue import Catalogue, Message, default_catalogue
 from edge_vis.errors import DecodeError, EncodeError
 from edge_vis.jaus.address import BROADCAST, JausAddress
 from edge_vis.tools.sim import components as svc
-from edge_vis.tools.sim import iop_sim, scripted, self_report, spooling
+from edge_vis.tools.sim import iop_sim, scripted, self_report, sensing_control, spooling
 from edge_vis.tools.sim.components import ComponentSpec
 from edge_vis.tools.sim.events import EVERY_CHANGE, PERIODIC, EventTable, Subscription
 from edge_vis.tools.sim.kinematics import Motion, clamp
@@ -137,6 +137,7 @@ class SimVehicle:
         self.effort: dict[str, float] = {}
         self.waypoints = WaypointList()
         self.spooler = spooling.Spooler()
+        self.sensing = sensing_control.SensingState()
         self.counters: Counter[str] = Counter()
         self.reboots = 0
         self._physics_time = start
@@ -984,6 +985,8 @@ _QUERIES: dict[str, tuple[str, str, Builder]] = {
                               _sensor(Sensors.ocean_environment)),
 }
 
+_HANDLERS.update(sensing_control.HANDLERS)
+_QUERIES.update(sensing_control.QUERIES)
 # the IOP and UGV services of a vehicle with ``iop = true`` (:mod:`edge_vis.tools.sim.iop_sim`)
 _HANDLERS.update(iop_sim.HANDLERS)
 _QUERIES.update(iop_sim.QUERIES)
