@@ -263,6 +263,9 @@ class CbrnTranslator(RuleTranslator):
         ("CBRNDetailedInfoRequest", "commented out of the public JSIDL (and shares 0xF927 "
                                     "with CBRNCommand)"),
         ("CBRNDetailedInfoResponse", "commented out of the public JSIDL"),
+        ("QueryCBRNDetection", "asks for CBRNDetection, which cannot be read as published"),
+        ("QueryCBDetailedMeasurement", "its answer is read as RNDetailedMeasurement, asked "
+                                       "with QueryRNDetailedMeasurement"),
     )
 
     def command(self, rule: Cmd, sample: Mapping[str, Any]) -> Command | None:

@@ -236,6 +236,8 @@ class IopTranslator(RuleTranslator):
         ("ReportHeartbeatPulse", "unsolicited heartbeats keep the vehicle alive in the "
                                  "engine; VehicleStatus comes from the core translator"),
         ("ReportPathReporterCapabilities", "path limits: not exposed"),
+        ("QueryPathReporterCapabilities", "asks for ReportPathReporterCapabilities, which is "
+                                          "not exposed"),
     )
 
     def on_vehicle(self, change: str, ctx: TranslatorContext) -> list[Action]:
