@@ -86,6 +86,25 @@ def test_mission_line_names_the_waypoint_only_while_one_is_active() -> None:
     assert "mission completed" in text and "wp -1" not in text
 
 
+def test_the_plan_held_and_the_spooled_mission_are_shown() -> None:
+    view = FleetView()
+    wp = {"message": "SetGlobalWaypoint"}
+    view.ingest("VehiclePlan", {"vehicle_id": "v", "component": "1.1.2", "element_count": 3,
+                                "elements": [wp], "complete": False}, 0.0)
+    assert any("holds 1/3 waypoints" in line for line in view.render(0.0))
+    view.ingest("VehiclePlan", {"vehicle_id": "v", "component": "1.1.2", "element_count": 2,
+                                "elements": [wp, {"message": "SetGlobalPathSegment"}],
+                                "complete": True}, 1.0)
+    view.ingest("SpoolerStatus", {"vehicle_id": "v", "scope": "MISSION", "id": 7,
+                                  "status": "PAUSED"}, 1.0)
+    view.ingest("SpoolerStatus", {"vehicle_id": "v", "scope": "COMMAND", "id": 7,
+                                  "status": "REFUSED"}, 1.0)
+    text = "\n".join(view.render(1.0))
+    assert "holds 2 elements" in text
+    assert "spooled mission 7 paused" in text and "refused" not in text
+    assert all(len(line) <= 80 for line in view.render(1.0))
+
+
 def test_dropouts_and_recoveries_are_counted() -> None:
     view = FleetView()
     for state, online in (("READY", True), ("OFFLINE", False), ("STANDBY", True),
@@ -110,6 +129,18 @@ def test_who_holds_each_component_and_the_clock_offset_are_shown() -> None:
     assert "clock -2.48 s" in text
     view.ingest("VehicleClock", {"vehicle_id": "v", "offset_ms": math.nan}, 2.0)
     assert "clock" not in "\n".join(view.render(2.0))
+
+
+def test_camera_stream_state_is_shown_per_camera() -> None:
+    view = FleetView()
+    view.ingest("SensorState", {"vehicle_id": "v", "sensor_id": 1, "configuration": "x=1"},
+                0.0)
+    assert "camera" not in "\n".join(view.render(0.0))  # no stream asked for yet
+    view.ingest("SensorState", {"vehicle_id": "v", "sensor_id": 2, "stream": "PLAY"}, 0.0)
+    view.ingest("SensorState", {"vehicle_id": "v", "sensor_id": 1, "stream": "PAUSE"}, 1.0)
+    assert "camera 1:pause 2:play" in "\n".join(view.render(1.0))
+    view.ingest("SensorState", {"vehicle_id": "v", "sensor_id": 2, "stream": "STOP"}, 2.0)
+    assert "camera 1:pause 2:stop" in "\n".join(view.render(2.0))
 
 
 def test_operator_keys_make_commands() -> None:
@@ -213,3 +244,30 @@ def test_plain_output_lists_the_vehicles_published_on_dds() -> None:
     assert "UGV" in alpha and "STANDBY" in alpha and "36.60020,-121.90000" in alpha
     assert "AUV" in delta and "36.62000" in delta
     assert '"GlobalPose"' in done.stdout  # the JSON summary counts samples per topic
+
+
+def test_handoff_requests_are_shown_and_answered_by_keys() -> None:
+    view = FleetView()
+    _fleet(view, 0.0)
+    view.ingest("HandoffStatus", {"vehicle_id": "ugv-a", "holder": "alice", "requests": [
+        {"request_id": 3, "requester": "bob", "authority": 90, "state": "PENDING",
+         "explanation": "my sector"},
+        {"request_id": 2, "requester": "carol", "authority": 10, "state": "DENIED"}]}, 1.0)
+    lines = view.render(1.0)
+    assert "   HAND-OFF #3 to bob (90) 'my sector' pending: a = grant, n = refuse" in lines
+    assert not any("carol" in line for line in lines)  # decided: not asked again
+    assert all(len(line) <= 80 for line in lines)
+    alice = Operator("alice", 150)
+    alice.select(view, 0)
+    [(topic, sample)] = alice.key("a", view)
+    assert (topic, sample) == ("HandoffResponse", {"vehicle_id": "ugv-a", "operator_id":
+                                                   "alice", "request_id": 3,
+                                                   "response": "GRANTED"})
+    assert alice.key("n", view)[0][1]["response"] == "DENIED"
+    bob = Operator("bob", 90)
+    bob.select(view, 0)
+    [(topic, sample)] = bob.key("h", view)
+    assert topic == "HandoffRequest" and sample["authority"] == 90
+    view.ingest("HandoffStatus", {"vehicle_id": "ugv-a", "holder": "bob", "requests": [
+        {"request_id": 3, "requester": "bob", "authority": 90, "state": "GRANTED"}]}, 2.0)
+    assert alice.key("a", view) == [] and "no hand-off request" in alice.message

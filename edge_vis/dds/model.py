@@ -103,6 +103,22 @@ class MissionState(IdlEnum, typename="edge_vis::MissionState"):
     MISSION_FAILED = 6
 
 
+class SpoolerAction(IdlEnum, typename="edge_vis::SpoolerAction"):
+    """What a :class:`MissionSpoolCommand` asks a vehicle's Mission Spooler to do
+    (prefixed; dicts may leave the prefix out, ``"RUN"``)."""
+
+    SPOOLER_SPOOL = 0
+    SPOOLER_RUN = 1
+    SPOOLER_PAUSE = 2
+    SPOOLER_RESUME = 3
+    SPOOLER_ABORT = 4
+    SPOOLER_INSERT_MESSAGES = 5
+    SPOOLER_REMOVE_MESSAGES = 6
+    SPOOLER_INSERT_TASK = 7
+    SPOOLER_REMOVE_TASK = 8
+    SPOOLER_QUERY_PLAN = 9
+
+
 class HealthLevel(IdlEnum, typename="edge_vis::HealthLevel"):
     """Summary health of a vehicle."""
 
@@ -314,6 +330,76 @@ class SensorInfo(IdlStruct, typename="edge_vis::SensorInfo"):
     horizontal_fov: float64 = 0.0
     vertical_fov: float64 = 0.0
     update_rate_hz: float64 = 0.0
+    # mounting (ReportSensorGeometricProperties): position (m) and orientation (unit
+    # quaternion w, x, y, z) in the vehicle frame, or on a manipulator joint (mounted_on)
+    mount_x: float64 = NAN
+    mount_y: float64 = NAN
+    mount_z: float64 = NAN
+    mount_qw: float64 = NAN
+    mount_qx: float64 = NAN
+    mount_qy: float64 = NAN
+    mount_qz: float64 = NAN
+    mounted_on: str = ""
+
+
+@dataclass
+class SensorState(IdlStruct, typename="edge_vis::SensorState"):
+    """What a sensor of one ``kind`` (visual, digital_video, analog_video, still_image,
+    range) is set to: its configuration as ``name=value`` pairs (JAUS field names and
+    values), the answer to the last configuration sent, and the video stream state last
+    asked for through the relay (JAUS reports no stream state)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    sensor_id: uint16
+    key("sensor_id")
+    kind: str
+    key("kind")
+    configuration: str = ""
+    confirmation: str = ""
+    stream: str = ""
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class SensorCommand(IdlStruct, typename="edge_vis::SensorCommand"):
+    """An operator's order to one sensor: ``action`` configure (``kind`` visual,
+    digital_video, analog_video, still_image or range; ``settings`` as ``name=value``
+    pairs of the JAUS Set...SensorConfiguration fields), play / pause / stop (the digital
+    video stream) or capture (one still image now)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    sensor_id: uint16
+    action: str
+    kind: str = ""
+    settings: str = ""
+
+
+@dataclass
+class HmiInput(IdlStruct, typename="edge_vis::HmiInput"):
+    """An input device of an operator interface on the vehicle's JAUS network (a hand-held
+    controller, a panel): ``device`` is ``keyboard``, ``pointer``, ``dcm_<ref>`` (a
+    digital control) or ``analog_<ref>`` (a joystick; axes -1..1 of full deflection);
+    ``state`` the last action (``PRESSED``, ``LEFT DOWN``...), ``code`` the key or
+    control, ``x``/``y`` the pointer position (viewport pixels)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    device: str
+    key("device")
+    name: str = ""
+    state: str = ""
+    code: int32 = 0
+    x: float64 = NAN
+    y: float64 = NAN
+    z: float64 = NAN
+    roll: float64 = NAN
+    pitch: float64 = NAN
+    yaw: float64 = NAN
+    valid: bool = True
+    timestamp_ms: int64 = 0
 
 
 @dataclass
@@ -496,6 +582,183 @@ class WaypointPlan(IdlStruct, typename="edge_vis::WaypointPlan"):
     speed: float64 = 0.0
 
 
+# -- plan read-back, path segments, mission spooler ----------------------------------------
+
+
+@dataclass
+class PlanElement(IdlStruct, typename="edge_vis::PlanElement"):
+    """One element a vehicle holds: a waypoint, or a path segment ending at the position
+    with ``control_*`` its control point (P1) and ``weighting_factor`` (0 = straight).
+    ``message`` names the JAUS message the element carries (``SetGlobalWaypoint``...;
+    ``""`` when it is not one the relay knows). Unset members are NaN."""
+
+    uid: uint16 = 0
+    previous_uid: uint16 = 0
+    next_uid: uint16 = 0
+    message: str = ""
+    latitude: float64 = NAN
+    longitude: float64 = NAN
+    altitude: float64 = NAN
+    x: float64 = NAN
+    y: float64 = NAN
+    z: float64 = NAN
+    tolerance: float64 = NAN
+    control_latitude: float64 = NAN
+    control_longitude: float64 = NAN
+    control_altitude: float64 = NAN
+    control_x: float64 = NAN
+    control_y: float64 = NAN
+    control_z: float64 = NAN
+    weighting_factor: float64 = NAN
+
+
+@dataclass
+class VehiclePlan(IdlStruct, typename="edge_vis::VehiclePlan"):
+    """The plan one component of a vehicle actually holds, read back from it: its List
+    Manager's elements in list order (``complete`` once every listed element was read),
+    and ``current``, the waypoint or path segment its driver reports it is going to."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    component: str
+    key("component")
+    element_count: int32 = -1
+    elements: sequence[PlanElement] = field(default_factory=list)
+    complete: bool = False
+    current: PlanElement = field(default_factory=PlanElement)
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class PlanQuery(IdlStruct, typename="edge_vis::PlanQuery"):
+    """Read the plan of a vehicle again now (the operator holding it)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+
+
+@dataclass
+class PathSegment(IdlStruct, typename="edge_vis::PathSegment"):
+    """A path segment ending at latitude/longitude/altitude (GLOBAL) or x/y/z (LOCAL),
+    bent towards its control point by ``weighting_factor`` (0 = a straight line)."""
+
+    latitude: float64 = 0.0
+    longitude: float64 = 0.0
+    altitude: float64 = 0.0
+    x: float64 = 0.0
+    y: float64 = 0.0
+    z: float64 = 0.0
+    control_latitude: float64 = 0.0
+    control_longitude: float64 = 0.0
+    control_altitude: float64 = 0.0
+    control_x: float64 = 0.0
+    control_y: float64 = 0.0
+    control_z: float64 = 0.0
+    weighting_factor: float64 = 0.0
+    tolerance: float64 = 0.0
+
+
+@dataclass
+class PathSegmentPlan(IdlStruct, typename="edge_vis::PathSegmentPlan"):
+    """Path segments to drive in order at ``speed`` m/s (0 = the vehicle's default)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    plan_id: str
+    segments: sequence[PathSegment]
+    frame: Frame = Frame.GLOBAL
+    speed: float64 = 0.0
+
+
+@dataclass
+class MissionMessage(IdlStruct, typename="edge_vis::MissionMessage"):
+    """One JAUS message of a spooled mission task: ``message`` by name with its fields as
+    a JSON object (``fields_json``), for component ``destination`` (``S.N.C``; empty:
+    the spooler's own subsystem, node and component 1). ``blocking``: the spooler waits for
+    it to finish before the next one."""
+
+    uid: uint16
+    message: str
+    fields_json: str = "{}"
+    destination: str = ""
+    blocking: bool = False
+
+
+@dataclass
+class MissionTask(IdlStruct, typename="edge_vis::MissionTask"):
+    """A task of a spooled mission: its messages, and its sub-tasks as indices into the
+    mission's task list."""
+
+    task_id: uint16
+    messages: sequence[MissionMessage] = field(default_factory=list)
+    child_tasks: sequence[uint16] = field(default_factory=list)
+
+
+@dataclass
+class MissionSpoolCommand(IdlStruct, typename="edge_vis::MissionSpoolCommand"):
+    """An operator's order to a vehicle's Mission Spooler (see :class:`SpoolerAction`):
+    SPOOL sends ``tasks`` as mission ``mission_id``; RUN, PAUSE, RESUME, ABORT act on it
+    (``task_id``/``message_uid`` narrow RUN and PAUSE when non-zero); INSERT_MESSAGES puts
+    the first task's messages before or after (``after``) ``message_uid`` of ``task_id``;
+    REMOVE_MESSAGES removes ``uids`` from ``task_id``; INSERT_TASK puts the first task
+    before or after ``task_id`` under ``parent_task_id``; REMOVE_TASK removes ``uids``
+    (task IDs) under ``task_id``; QUERY_PLAN reads the stored plan of ``mission_id``."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    action: SpoolerAction
+    mission_id: uint16 = 0
+    task_id: uint16 = 0
+    message_uid: uint16 = 0
+    after: bool = False
+    parent_task_id: uint16 = 0
+    tasks: sequence[MissionTask] = field(default_factory=list)
+    uids: sequence[uint16] = field(default_factory=list)
+
+
+@dataclass
+class SpoolerStatus(IdlStruct, typename="edge_vis::SpoolerStatus"):
+    """What a vehicle's Mission Spooler says of a mission, task or message (``scope``
+    MISSION, TASK or MESSAGE, ``id`` its ID): ``status`` INIT, RUNNING, PAUSING, PAUSED,
+    ABORTING, ABORTED, BLOCKED or FINISHED; ``detail`` the secondary status."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    scope: str
+    key("scope")
+    id: uint16 = 0
+    status: str = ""
+    detail: str = ""
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class StoredMission(IdlStruct, typename="edge_vis::StoredMission"):
+    """A mission a spooler holds and the JAUS address (``S.N.C``) of who spooled it."""
+
+    mission_id: uint16
+    creator: str = ""
+
+
+@dataclass
+class SpoolerMissions(IdlStruct, typename="edge_vis::SpoolerMissions"):
+    """The missions a vehicle's spooler holds (ReportStoredMissions), the plan of the last
+    one read back (``plan_mission_id``, ``plan``: its tasks as the vehicle holds them) and
+    its spooling preference (``preference``, NaN until reported)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    missions: sequence[StoredMission] = field(default_factory=list)
+    plan_mission_id: int32 = -1
+    plan_source: str = ""
+    plan: sequence[MissionTask] = field(default_factory=list)
+    preference: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
 # --------------------------------------------------------------------------- image products
 
 
@@ -587,6 +850,27 @@ class JointState(IdlStruct, typename="edge_vis::JointState"):
     key("quantity")
     values: sequence[float64] = field(default_factory=list)
     units: sequence[str] = field(default_factory=list)
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class JointSpecification(IdlStruct, typename="edge_vis::JointSpecification"):
+    """What the joints of ``device`` (manipulator, pan_tilt, end_effector) are, as the
+    vehicle reports them: joint i of ``JointState.values`` is ``names[i]``, ``types[i]``
+    revolute or prismatic, limits in ``units[i]`` (rad or m; speeds per second; NaN: not
+    reported). ``parent_id`` is an end effector's parent link."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    device: str
+    key("device")
+    names: sequence[str] = field(default_factory=list)
+    types: sequence[str] = field(default_factory=list)
+    min_values: sequence[float64] = field(default_factory=list)
+    max_values: sequence[float64] = field(default_factory=list)
+    max_speeds: sequence[float64] = field(default_factory=list)
+    units: sequence[str] = field(default_factory=list)
+    parent_id: int64 = -1
     timestamp_ms: int64 = 0
 
 
@@ -830,13 +1114,284 @@ class DeviceCommand(IdlStruct, typename="edge_vis::DeviceCommand"):
 
 @dataclass
 class PlatformCommand(IdlStruct, typename="edge_vis::PlatformCommand"):
-    """Ask for an IOP platform state and/or mode (empty = leave unchanged)."""
+    """Ask for an IOP platform state and/or mode (empty = leave unchanged); with
+    ``update_health`` the health monitor is asked to refresh its summary."""
 
     vehicle_id: str
     key("vehicle_id")
     operator_id: str
     platform_state: str = ""
     platform_mode: str = ""
+    update_health: bool = False
+
+# --------------------------------------------------------------------------- IOP and UGV extras
+
+
+@dataclass
+class HandoffRequest(IdlStruct, typename="edge_vis::HandoffRequest"):
+    """An operator asks the operator holding a vehicle to hand it over (``action``
+    REQUEST; publish it again within the re-assert timeout to keep it), or withdraws
+    (CANCEL). IOP EnhancedAccessControl."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    authority: uint8 = 0
+    explanation: str = ""
+    action: str = "REQUEST"
+
+
+@dataclass
+class HandoffResponse(IdlStruct, typename="edge_vis::HandoffResponse"):
+    """The holder's answer to hand-off request ``request_id``: GRANTED (the requester holds
+    the vehicle from now on), DENIED, or WAIT (decide later; the timeout restarts)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    request_id: uint8
+    response: str = "DENIED"
+
+
+@dataclass
+class HandoffEntry(IdlStruct, typename="edge_vis::HandoffEntry"):
+    """One hand-off request: ``requester`` an operator, or ``jaus:S.N.C`` for another JAUS
+    client asking through vehicle component ``via``; ``state`` PENDING or DEFERRED while
+    the holder decides, then GRANTED, DENIED, TIMEOUT, CANCELLED, NOT_AVAILABLE or
+    INSUFFICIENT_AUTHORITY, with the ``reason``."""
+
+    request_id: uint8 = 0
+    requester: str = ""
+    authority: uint8 = 0
+    explanation: str = ""
+    state: str = ""
+    reason: str = ""
+    via: str = ""
+
+
+@dataclass
+class HandoffStatus(IdlStruct, typename="edge_vis::HandoffStatus"):
+    """Hand-off requests of a vehicle for its ``holder`` to answer, and their outcomes;
+    the timeouts in force (s, 0 = none; the vehicle's own NaN when it reports none)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    holder: str = ""
+    handoff_timeout: float64 = 0.0
+    reassert_timeout: float64 = 0.0
+    vehicle_handoff_timeout: float64 = NAN
+    requests: sequence[HandoffEntry] = field(default_factory=list)
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class CostMap(IdlStruct, typename="edge_vis::CostMap"):
+    """A 2-D cost map (IOP CostMap2D): ``rows`` x ``columns`` cells, row-major, over
+    ``width`` x ``height`` m centred at the GLOBAL (deg) or LOCAL (m) centre, rotated by
+    ``rotation`` rad; ``costs`` per cell 0..255, ``confidence`` percent per cell (empty when
+    the vehicle sends none)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    rows: uint16 = 0
+    columns: uint16 = 0
+    width: float64 = NAN
+    height: float64 = NAN
+    frame: Frame = Frame.GLOBAL
+    center_latitude: float64 = NAN
+    center_longitude: float64 = NAN
+    center_x: float64 = NAN
+    center_y: float64 = NAN
+    rotation: float64 = NAN
+    costs: sequence[uint8] = field(default_factory=list)
+    confidence: sequence[float64] = field(default_factory=list)
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class CostMapRequest(IdlStruct, typename="edge_vis::CostMapRequest"):
+    """Ask for a cost map of at most ``max_width`` x ``max_height`` m (NaN: the vehicle's
+    choice) around a GLOBAL (deg) or LOCAL (m) centre (NaN: the vehicle's)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str = ""
+    max_width: float64 = NAN
+    max_height: float64 = NAN
+    frame: Frame = Frame.GLOBAL
+    center_latitude: float64 = NAN
+    center_longitude: float64 = NAN
+    center_x: float64 = NAN
+    center_y: float64 = NAN
+    rotation: float64 = 0.0
+
+
+@dataclass
+class NoGoZone(IdlStruct, typename="edge_vis::NoGoZone"):
+    """A polygon the vehicle must not enter: GLOBAL (lat/lon) or LOCAL (x/y) vertices."""
+
+    zone_id: uint16 = 0
+    frame: Frame = Frame.GLOBAL
+    vertices: sequence[Waypoint] = field(default_factory=list)
+
+
+@dataclass
+class NoGoZones(IdlStruct, typename="edge_vis::NoGoZones"):
+    """Every no-go zone the vehicle holds."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    zones: sequence[NoGoZone] = field(default_factory=list)
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class NoGoZoneCommand(IdlStruct, typename="edge_vis::NoGoZoneCommand"):
+    """ADD a no-go zone (``vertices`` in ``frame``; the vehicle answers with its zone id in
+    ``RequestResult``, matched by ``request_id``) or REMOVE zone ``zone_id``."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    action: str = "ADD"
+    request_id: uint16 = 0
+    zone_id: uint16 = 0
+    frame: Frame = Frame.GLOBAL
+    vertices: sequence[Waypoint] = field(default_factory=list)
+
+
+@dataclass
+class RequestResult(IdlStruct, typename="edge_vis::RequestResult"):
+    """A vehicle's answer to a request that carries an ID: ``request`` names it
+    (AddNoGoZone, DigitalResourceEndpoint for a register or remove),
+    ``result`` how it went, ``id`` what the vehicle assigned (zone, endpoint)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    request: str
+    key("request")
+    request_id: uint16 = 0
+    result: str = ""
+    id: uint32 = 0
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class DigitalResourceCommand(IdlStruct, typename="edge_vis::DigitalResourceCommand"):
+    """REGISTER an endpoint (``url``, ``server_type`` RTSP, MPEG2_TS, FTP, SFTP,
+    FTP_over_SSH, HTTP, HTTPS, SCP; optional ``jaus_address`` S.N.C and ``resource_id``) with
+    the vehicle's DigitalResourceDiscovery, or REMOVE endpoint ``endpoint_id``."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    action: str = "REGISTER"
+    request_id: uint8 = 0
+    url: str = ""
+    server_type: str = "RTSP"
+    jaus_address: str = ""
+    resource_id: int32 = -1
+    endpoint_id: uint32 = 0
+
+
+@dataclass
+class CbrnStatus(IdlStruct, typename="edge_vis::CbrnStatus"):
+    """State of one CBRN payload station (IOP CBRNSensor; ``station`` 1..32, 0 = the
+    payload as a whole): the operating, configuration and scan window reports merged; each
+    report's every field by its JAUS name in ``operating``, ``configuration`` and
+    ``scan_window`` (enumerations as their number)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    station: uint32
+    key("station")
+    payload_state: str = ""
+    operating_mode: str = ""
+    sampling_state: str = ""
+    product_name: str = ""
+    payload_type: str = ""
+    power_mode: str = ""
+    battery_remaining: float64 = NAN
+    operating: sequence[GenericField] = field(default_factory=list)
+    configuration: sequence[GenericField] = field(default_factory=list)
+    scan_window: sequence[GenericField] = field(default_factory=list)
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class CbrnDetection(IdlStruct, typename="edge_vis::CbrnDetection"):
+    """A CBRN report of one station: ``kind`` CBRN4 (ATP-45 text) or MEASUREMENT (detailed
+    measurement text), ``detection`` Below/Above Threshold, Above Threshold Update or NIL."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    station: uint32
+    key("station")
+    kind: str
+    key("kind")
+    detection: str = ""
+    report_id: int64 = -1
+    text: str = ""
+    time: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class CbrnCommand(IdlStruct, typename="edge_vis::CbrnCommand"):
+    """Command a CBRN payload station (1..32, 0 = all): ``kind`` COMMAND (CBRNCommand),
+    CONFIGURATION (CBRNConfigurationCommand, which needs ``set_cbrn4_delivery_mode``) or
+    DISPLAY (CBRNDisplayConfigurationCommand); ``settings`` names the JAUS fields
+    (``set_power_mode``) with a label in ``text`` (``On``) or a ``number``."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    station: uint8 = 0
+    kind: str = "COMMAND"
+    settings: sequence[GenericField] = field(default_factory=list)
+
+
+@dataclass
+class SkidSteerCommand(IdlStruct, typename="edge_vis::SkidSteerCommand"):
+    """Open-loop track efforts, percent -100..100 (UGV SkidSteerDriver); a motion command."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    left_effort: float64 = 0.0
+    right_effort: float64 = 0.0
+
+
+@dataclass
+class AckermannCommand(IdlStruct, typename="edge_vis::AckermannCommand"):
+    """Open-loop steering (rad), throttle and brake (percent 0..100) (UGV AckermannDriver);
+    rate (rad/s) and torque (N m) limits optional. A motion command."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    steering_angle: float64 = 0.0
+    throttle_effort: float64 = 0.0
+    brake_effort: float64 = 0.0
+    max_steering_rate: Optional[float64] = None  # noqa: UP045 (cyclonedds needs Optional)
+    max_steering_torque: Optional[float64] = None  # noqa: UP045
+
+
+@dataclass
+class DeviceCapabilities(IdlStruct, typename="edge_vis::DeviceCapabilities"):
+    """What a UGV device can do: ``supported`` names (lights, sounders, gears, transfer case
+    modes) and ``limits`` (a stabilizer's angles, a power plant's capacities) by name with
+    their unit in ``text``; ``points`` a stabilizer's outline (m)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    device: str
+    key("device")
+    supported: sequence[str] = field(default_factory=list)
+    limits: sequence[GenericField] = field(default_factory=list)
+    points: sequence[Waypoint] = field(default_factory=list)
+    timestamp_ms: int64 = 0
+
 
 
 # --------------------------------------------------------------------------- mobility extras
@@ -964,7 +1519,8 @@ class GeomagneticProperty(IdlStruct, typename="edge_vis::GeomagneticProperty"):
 @dataclass
 class PoseCommand(IdlStruct, typename="edge_vis::PoseCommand"):
     """Reset a pose sensor's estimate: GLOBAL (deg, m) or LOCAL (m) position, attitude (rad),
-    and their RMS uncertainty; an absent member is left unchanged."""
+    and their RMS uncertainty; an absent member is left unchanged. ``magnetic_variation``
+    (rad, east positive), when given, sets the global pose sensor's geomagnetic property."""
 
     vehicle_id: str
     key("vehicle_id")
@@ -981,6 +1537,7 @@ class PoseCommand(IdlStruct, typename="edge_vis::PoseCommand"):
     yaw: Optional[float64] = None  # noqa: UP045
     position_rms: Optional[float64] = None  # noqa: UP045
     attitude_rms: Optional[float64] = None  # noqa: UP045
+    magnetic_variation: Optional[float64] = None  # noqa: UP045 (rad, east positive)
 
 
 STRUCTS: tuple[type[IdlStruct], ...] = (
@@ -996,16 +1553,26 @@ STRUCTS: tuple[type[IdlStruct], ...] = (
     VelocityCommand,
     WaypointPlan,
     MissionStatus,
+    VehiclePlan,
+    PlanQuery,
+    PathSegmentPlan,
+    MissionSpoolCommand,
+    SpoolerStatus,
+    SpoolerMissions,
     LinkStatus,
     HealthStatus,
     RangeScan,
     SensorInfo,
+    SensorState,
+    SensorCommand,
+    HmiInput,
     ImageProduct,
     ImageData,
     TransferStatus,
     EnvironmentalData,
     AccelerationState,
     JointState,
+    JointSpecification,
     EndEffectorPose,
     EndEffectorVelocity,
     Odometry,
@@ -1021,6 +1588,21 @@ STRUCTS: tuple[type[IdlStruct], ...] = (
     EndEffectorCommand,
     DeviceCommand,
     PlatformCommand,
+    HandoffRequest,
+    HandoffResponse,
+    HandoffStatus,
+    CostMap,
+    CostMapRequest,
+    NoGoZones,
+    NoGoZoneCommand,
+    RequestResult,
+    DigitalResourceCommand,
+    CbrnStatus,
+    CbrnDetection,
+    CbrnCommand,
+    SkidSteerCommand,
+    AckermannCommand,
+    DeviceCapabilities,
     WrenchEffortState,
     VelocityCommandState,
     VectorState,

@@ -33,9 +33,28 @@ Handler = Callable[[Vehicle, JausAddress, Mapping[str, Any], float], None]
 class InnerCodec(Protocol):
     """What the engine needs from the catalogue: the payloads nested in events."""
 
-    def encode(self, name_or_code: str | int, fields: Mapping[str, Any]) -> bytes: ...
+    def encode(self, name_or_code: str | int, fields: Mapping[str, Any],
+               dialects: Sequence[str] = ()) -> bytes: ...
 
-    def decode(self, payload: bytes) -> Any: ...
+    def decode(self, payload: bytes, dialects: Sequence[str] = ()) -> Any: ...
+
+
+def dialects_of(catalogue: Any, vehicle: Vehicle) -> tuple[str, ...]:
+    """The message dialects ``vehicle`` speaks: its profile's ``dialects`` when given,
+    else those its services are recognised by (none: the base definitions)."""
+    for profile in (vehicle.profile, vehicle.announced_by):
+        if profile is not None and profile.dialects is not None:
+            return profile.dialects
+    recognise = getattr(catalogue, "recognise", None)
+    if recognise is None or not vehicle.components:
+        return ()
+    services = vehicle.all_services()
+    cached = vehicle.dialect_cache
+    if cached is not None and cached[0] == services:
+        return cached[1]
+    found: tuple[str, ...] = tuple(recognise(services))
+    vehicle.dialect_cache = (services, found)
+    return found
 
 
 class EngineState:
@@ -63,6 +82,8 @@ class EngineState:
         #: a subscription started or stopped polling: the rates must be planned again
         self.plan_dirty = False
         self.shutting_down = False
+        #: (topic, instance key) -> the latest merged sample (Publish with ``merge``)
+        self.merged: dict[tuple[str, tuple[Any, ...]], dict[str, Any]] = {}
         #: ShutdownComplete was emitted: the engine takes no more input
         self.done = False
         self._catalogue = catalogue
@@ -76,9 +97,16 @@ class EngineState:
             self._catalogue = default_catalogue()
         return self._catalogue
 
-    def encode_query(self, name: str, fields: Mapping[str, Any]) -> bytes:
-        """The complete query message a CreateEvent carries."""
+    def encode_query(self, name: str, fields: Mapping[str, Any],
+                     dialects: Sequence[str] = ()) -> bytes:
+        """The complete query message a CreateEvent carries (as ``dialects`` read it)."""
+        if dialects:
+            return self.catalogue.encode(name, fields, dialects)
         return self.catalogue.encode(name, fields)
+
+    def dialects(self, vehicle: Vehicle) -> tuple[str, ...]:
+        """The message dialects ``vehicle`` speaks (see :func:`dialects_of`)."""
+        return dialects_of(self.catalogue, vehicle)
 
     def touch(self, vehicle: Vehicle) -> None:
         """``vehicle``'s state changed: the next pass must visit it."""

@@ -8,7 +8,8 @@ A translator plugin imports from here and from nothing else of edge-vis::
   :class:`TranslatorContext` (time, relay, vehicles, live catalogue), :class:`VehicleView`,
   :class:`ReportSpec`, :func:`derive_vehicle_id`, :class:`JausAddress`;
 * the actions a hook returns (:mod:`edge_vis.kit.actions`): :class:`Publish`,
-  :class:`Command`, :class:`DeclareVehicle`, :class:`EmergencyRequest` (the engine's
+  :class:`Command`, :class:`DeclareVehicle`, :class:`EmergencyRequest`, :class:`Dropped`
+  (the engine's
   own :class:`SendMessage` and :class:`ShutdownComplete` live beside them);
 * the rule vocabulary (:mod:`edge_vis.kit.rules`): report and command tables that
   :class:`RuleTranslator` runs and ``edge-vis mappings`` prints, and :func:`path_problem`
@@ -21,20 +22,23 @@ Control, events, throttling and the dead-man stop are the engine's: a translator
 
 from __future__ import annotations
 
-from edge_vis.errors import ConfigError
+from edge_vis.errors import ConfigError, DecodeError, EncodeError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.actions import (
     Action,
     Command,
     DeclareVehicle,
+    Dropped,
     EmergencyRequest,
     Publish,
     SendMessage,
     ShutdownComplete,
+    follow_up_query,
 )
 from edge_vis.kit.contract import (
     STATUS_NAMES,
     ClockView,
+    HandoffView,
     HolderView,
     ReportSpec,
     TopicDecl,
@@ -60,6 +64,7 @@ from edge_vis.kit.rules import (
     clamp,
     code_of,
     declarations,
+    decode_as,
     describe_rules,
     extract,
     flags,
@@ -74,12 +79,58 @@ from edge_vis.kit.rules import (
 from edge_vis.schema import read_table, setting
 
 __all__ = [
-    "CHUNK_BYTES", "NAN", "STATUS_NAMES", "Action", "Build", "ClockView", "Command", "CommandRule",
-    "Computed", "ConfigError", "Const", "DeclareVehicle", "Each", "EmergencyRequest", "From",
-    "HolderView", "JausAddress", "Publish", "Put",
-    "PutEach", "ReportRule", "ReportSpec", "RuleTranslator", "SendMessage", "ShutdownComplete",
-    "Spec", "TopicDecl", "Translator", "TranslatorContext", "VehicleView", "clamp", "code_of",
-    "declarations", "derive_vehicle_id", "describe_rules", "extract", "flags", "get_path",
-    "image_chunks", "label", "number", "path_problem", "publish_image", "put", "read_table",
-    "resolve_path", "set_path", "setting",
+    "CHUNK_BYTES",
+    "NAN",
+    "STATUS_NAMES",
+    "Action",
+    "Build",
+    "ClockView",
+    "Command",
+    "CommandRule",
+    "Computed",
+    "ConfigError",
+    "Const",
+    "DeclareVehicle",
+    "DecodeError",
+    "Dropped",
+    "Each",
+    "EmergencyRequest",
+    "EncodeError",
+    "From",
+    "HandoffView",
+    "HolderView",
+    "JausAddress",
+    "Publish",
+    "Put",
+    "PutEach",
+    "ReportRule",
+    "ReportSpec",
+    "RuleTranslator",
+    "SendMessage",
+    "ShutdownComplete",
+    "Spec",
+    "TopicDecl",
+    "Translator",
+    "TranslatorContext",
+    "VehicleView",
+    "clamp",
+    "code_of",
+    "declarations",
+    "decode_as",
+    "derive_vehicle_id",
+    "describe_rules",
+    "extract",
+    "flags",
+    "follow_up_query",
+    "get_path",
+    "image_chunks",
+    "label",
+    "number",
+    "path_problem",
+    "publish_image",
+    "put",
+    "read_table",
+    "resolve_path",
+    "set_path",
+    "setting",
 ]

@@ -21,7 +21,8 @@ JAUS -> DDS, a :class:`ReportRule`: ``fields`` maps each DDS member to a value s
 alternative of a variant). ``merge`` keeps the latest value of every member per instance,
 so a state topic fed by several reports (``PlatformStatus`` from ``ReportPlatformState``
 and ``ReportPlatformMode``) never clears what another report said, and a member a report
-did not carry (NaN) keeps its earlier value.
+did not carry (NaN) keeps its earlier value; the engine merges such samples across
+translators too (``HealthStatus`` from the health monitor and the power plant).
 
 DDS -> JAUS, a :class:`CommandRule`: ``fields`` maps JAUS field paths to :class:`Put`
 (one DDS member, clamped to the JAUS field's limits) or :class:`PutEach` (a JAUS list from
@@ -42,7 +43,9 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Union
 
+from edge_vis.codec.bodies import compile_type
 from edge_vis.codec.types import BitField, List, Record, VarFormat, Variant
+from edge_vis.errors import DecodeError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.actions import Action, Command, Publish
 from edge_vis.kit.contract import ReportSpec, Translator, TranslatorContext
@@ -250,6 +253,43 @@ def type_at(body: Record, path: str) -> Any:
     return node
 
 
+def decode_as(catalogue: Any, message: str, type_name: str, data: bytes) -> Any:
+    """``data`` decoded as the type named ``type_name`` (its JSIDL name) in the definition
+    of ``message``: for a JAUS value carried as bytes inside another (the JSIDL's
+    ``field_format``: compressed scan points are a ``RangeSensorDataPointList``). Raises
+    ValueError when no such type is there or the bytes do not fit it exactly."""
+    field_type = named_type(catalogue.by_name(message).body, type_name)
+    if field_type is None:
+        raise ValueError(f"{message} has no type named {type_name!r}")
+    try:
+        value, end = compile_type(field_type).decode(data, 0)
+    except DecodeError as exc:
+        raise ValueError(f"not a {type_name}: {exc}") from None
+    if end != len(data):
+        raise ValueError(f"{len(data) - end} bytes left over after the {type_name}")
+    return value
+
+
+def named_type(node: Any, name: str) -> Any:
+    """The first record, list or variant named ``name`` (its JSIDL name) in the field type
+    ``node`` (a message body), depth first; None when there is none."""
+    if getattr(node, "name", None) == name and isinstance(node, Record | List | Variant):
+        return node
+    if isinstance(node, Record):
+        children = [f.type for f in node.fields]
+    elif isinstance(node, Variant):
+        children = [a.type for a in node.alternatives]
+    elif isinstance(node, List):
+        children = [node.element]
+    else:
+        return None
+    for child in children:
+        found = named_type(child, name)
+        if found is not None:
+            return found
+    return None
+
+
 def _path_problem(node: Any, steps: list[str], done: list[str]) -> str:
     if not steps:
         return ""
@@ -446,8 +486,9 @@ class RuleTranslator(Translator):
             return []
         actions: list[Action] = []
         for rule in self._by_message.get(name, ()):
+            merge = ("vehicle_id", *rule.keys) if rule.merge else ()
             for sample in self.samples(rule, fields, ctx):
-                actions.append(Publish(rule.topic, sample))
+                actions.append(Publish(rule.topic, sample, merge))
         return actions
 
     def samples(self, rule: ReportRule, fields: Mapping[str, Any],

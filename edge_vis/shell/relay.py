@@ -19,6 +19,7 @@ raised; a failing link is reported and the relay keeps running.
 from __future__ import annotations
 
 import asyncio
+import functools
 import json
 import logging
 import time
@@ -31,9 +32,10 @@ from edge_vis.bandwidth.demands import FleetPlanner
 from edge_vis.bandwidth.linkspec import DEFAULT_PRIORITIES, LinkSpec
 from edge_vis.catalogue import Catalogue
 from edge_vis.config import BulkProfile, LinkProfile, RelayProfile
+from edge_vis.config.deployment import operator_partition
 from edge_vis.engine.announcements import verify_discovery
 from edge_vis.engine.engine import Engine
-from edge_vis.errors import CodecError, EdgeVisError, EncodeError
+from edge_vis.errors import CodecError, ConfigError, EdgeVisError, EncodeError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import Broadcast, Packet
 from edge_vis.kit.actions import EMERGENCY_CLASS, Publish, SendMessage, ShutdownComplete
@@ -193,16 +195,30 @@ class Runtime:
         registry = TopicRegistry.standard()
         for translator in self.engine.manager.translators:
             registry.register_all(translator.topic_types, owner=translator.name)
-        bridge = DdsBridge(self.profile.dds.domain, self.profile.dds.partitions, registry,
-                           max_products=self.profile.limits.max_products)
+        dds = self.profile.dds
+        if dds.security is not None and self.profile.operators.any_operator:
+            raise ConfigError([(self.profile.source, "access.any_operator",
+                                "with [dds.security] only the listed [[operators]] can be "
+                                "authenticated: set access.any_operator = false")])
+        bridge = DdsBridge(dds.domain, dds.partitions, registry,
+                           max_products=self.profile.limits.max_products,
+                           security=dds.security)
         published, subscribed = self.engine.manager.topics()
         bridge.open_writers([*published, "LinkStatus"])
         subscribed = [t for t in dict.fromkeys(subscribed)]
         if subscribed:
             bridge.watch_writers(self._on_operator_lost, loop=self._loop)
-            bridge.subscribe(subscribed, self._on_sample, loop=self._loop)
-        log.info("DDS domain %d, partitions %s: publishing %s; subscribed to %s",
-                 self.profile.dds.domain, list(self.profile.dds.partitions) or ["(default)"],
+            if dds.security is None:
+                bridge.subscribe(subscribed, self._on_sample, loop=self._loop)
+            else:  # each operator's own partition: where a command arrives proves its sender
+                for operator in self.profile.operators.operators:
+                    bridge.subscribe(subscribed, functools.partial(self._on_sample_from,
+                                                                   operator),
+                                     loop=self._loop, partition=operator_partition(operator))
+        log.info("DDS domain %d, partitions %s%s: publishing %s; subscribed to %s",
+                 dds.domain, list(dds.partitions) or ["(default)"],
+                 ", DDS Security on, commands from each operator's partition"
+                 if dds.security is not None else "",
                  ", ".join(published), ", ".join(subscribed))
         return bridge
 
@@ -298,6 +314,21 @@ class Runtime:
         self.engine.receive_sample(topic, sample, now)
         self._pump_engine(now)
 
+    def _on_sample_from(self, sender: str, topic: str, sample: dict[str, Any]) -> None:
+        """A command read in ``sender``'s partition, which only ``sender``'s signed
+        permissions may write to: its ``operator_id`` must be ``sender``."""
+        claimed = str(sample.get("operator_id", ""))
+        if claimed == sender:
+            self._on_sample(topic, sample)
+            return
+        assert self._loop is not None and self.engine is not None
+        now = self._loop.time()
+        self.counters["commands refused: operator_id is not the sender"] += 1
+        reason = f"operator_id {claimed!r} refused: sent by {sender}"
+        self._log.warning("impersonation", now, "%s %s", topic, reason)
+        self.engine.refuse_sample(topic, sample, reason, now)
+        self._pump_engine(now)
+
     def _on_operator_lost(self, operator_id: str) -> None:
         """Every DDS writer of ``operator_id`` is gone (see ``DdsBridge.watch_writers``)."""
         assert self._loop is not None
@@ -345,7 +376,9 @@ class Runtime:
                 if packet.message_code is None:
                     continue
                 try:
-                    message = self.catalogue.decode(packet.payload)
+                    dialects = engine.dialects_of(packet.source) if engine is not None \
+                        else ()
+                    message = self.catalogue.decode(packet.payload, dialects)
                 except CodecError as exc:
                     self.counters["undecodable messages"] += 1
                     self._log.warning("decode", now, "undecodable message from %s: %s",
@@ -379,7 +412,10 @@ class Runtime:
 
     def _send(self, action: SendMessage, now: float) -> None:
         try:
-            payload = self.catalogue.encode(_code_of(self.catalogue, action), action.fields)
+            dialects = self.engine.dialects_of(action.destination) \
+                if self.engine is not None and not action.destination.is_broadcast else ()
+            payload = self.catalogue.encode(_code_of(self.catalogue, action), action.fields,
+                                            dialects)
         except EdgeVisError as exc:
             self.counters["encode errors"] += 1
             log.error("cannot encode %s for %s: %s", action.name, action.destination, exc)
@@ -422,6 +458,8 @@ class Runtime:
                                                 self.engine.counters.items()}))
             for name, count in self.engine.manager.errors.items():
                 out[Tally(Kind.TRANSLATOR_ERROR, "errors", name)] = count
+            for (name, reason), count in self.engine.manager.drops.items():
+                out[Tally(Kind.TRANSLATOR_DROP, reason, name)] = count
         for sample in self.link_status():
             name = sample["link"]
             out.update(tallies_of(Kind.LINK_TRAFFIC, {

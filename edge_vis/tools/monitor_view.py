@@ -23,10 +23,13 @@ READ_TOPICS: tuple[str, ...] = (
     "VehicleIdentification", "VehicleStatus", "GlobalPose", "LocalPose", "Velocity",
     "ControlStatus", "MissionStatus", "LinkStatus", "RangeScan", "ImageProduct",
     "EnvironmentalData", "TransferStatus", "VehicleClock",
+    "VehiclePlan", "SpoolerStatus",
+    "SensorState",
+    "HandoffStatus",
 )
 #: command topics the monitor writes
 WRITE_TOPICS: tuple[str, ...] = ("ControlRequest", "WrenchEffortCommand", "WaypointPlan",
-                                 "EmergencyCommand")
+                                 "EmergencyCommand", "HandoffRequest", "HandoffResponse")
 #: topics counted as telemetry in a vehicle's rate column
 TELEMETRY = frozenset({"GlobalPose", "LocalPose", "Velocity", "RangeScan",
                        "EnvironmentalData"})
@@ -83,6 +86,9 @@ class VehicleRow:
     clock_offset: float | None = None
     mission: str = ""
     active_waypoint: int = -1
+    #: the plan the vehicle holds (elements read back / listed) and its spooler's mission
+    plan: str = ""
+    spooler: str = ""
     last_image: str = ""
     last_image_size: int = 0
     images: int = 0
@@ -92,6 +98,10 @@ class VehicleRow:
     emergency_operator: str = ""
     emergency_reason: str = ""
     last_rejection: str = ""
+    #: camera (sensor id) -> its video stream state as last asked for (PLAY, PAUSE, STOP)
+    streams: dict[int, str] = field(default_factory=dict)
+    #: hand-off requests: (request id, requester, authority, state, explanation)
+    handoffs: list[tuple[int, str, int, str, str]] = field(default_factory=list)
     samples: Counter[str] = field(default_factory=Counter)
     rates: dict[str, RateMeter] = field(default_factory=dict)
     last_seen: float = 0.0
@@ -177,6 +187,12 @@ class FleetView:
                         int(h.get("authority", 0) or 0), bool(h.get("is_relay", False)))
                        for h in s.get("holders", None) or []]
 
+    def _on_HandoffStatus(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        row.handoffs = [(int(r.get("request_id", 0)), str(r.get("requester", "")),
+                         int(r.get("authority", 0) or 0), str(r.get("state", "")),
+                         str(r.get("explanation", "") or ""))
+                        for r in s.get("requests", None) or []]
+
     def _on_VehicleClock(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
         offset = s.get("offset_ms")
         row.clock_offset = offset / 1000.0 if isinstance(offset, int | float) and not (
@@ -186,10 +202,28 @@ class FleetView:
         row.mission = str(s.get("state", "")).removeprefix("MISSION_")
         row.active_waypoint = int(s.get("active_waypoint", -1))
 
+    def _on_VehiclePlan(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        elements = s.get("elements") or []
+        kinds = {"waypoints" if "Waypoint" in m else "segments" if "PathSegment" in m
+                 else "elements" for e in elements if (m := str(e.get("message", "")))}
+        what = kinds.pop() if len(kinds) == 1 else "elements"
+        count = int(s.get("element_count", -1))
+        held = f"{len(elements)}/{count}" if count >= 0 and not s.get("complete") \
+            else str(len(elements))
+        row.plan = f"{held} {what}" if elements or count > 0 else "empty"
+
+    def _on_SpoolerStatus(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        if s.get("scope") == "MISSION":
+            row.spooler = f"{s.get('id', 0)} {str(s.get('status', '')).lower()}"
+
     def _on_ImageProduct(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
         row.images += 1
         row.last_image = s.get("file_name", "") or str(s.get("image_id", ""))
         row.last_image_size = int(s.get("size_bytes", 0) or 0)
+
+    def _on_SensorState(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        if s.get("stream"):
+            row.streams[int(s.get("sensor_id", 0) or 0)] = str(s["stream"])
 
     def _on_EnvironmentalData(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
         if s.get("depth") is not None:
@@ -243,9 +277,16 @@ class FleetView:
             if row.mission and row.mission != "IDLE":
                 waypoint = f" wp {row.active_waypoint}" if row.active_waypoint >= 0 else ""
                 extra.append(f"mission {row.mission.lower()}{waypoint}")
+            if row.plan:
+                extra.append(f"holds {row.plan}")
+            if row.spooler:
+                extra.append(f"spooled mission {row.spooler}")
             if row.last_image:
                 size = f" ({row.last_image_size // 1024} KiB)" if row.last_image_size else ""
                 extra.append(f"image {row.last_image}{size}")
+            if row.streams:
+                extra.append("camera " + " ".join(f"{sensor}:{state.lower()}" for sensor, state
+                                                  in sorted(row.streams.items())))
             if row.went_offline:
                 extra.append(f"dropouts {row.went_offline} recovered {row.recovered}")
             held = [f"{c} by {'relay' if relay else who}({authority})"
@@ -256,6 +297,11 @@ class FleetView:
                 extra.append(f"clock {row.clock_offset:+.2f} s")
             if extra:
                 lines.append(("   " + ", ".join(extra))[:width])
+            for request_id, requester, authority, state, why in row.handoffs:
+                if state in ("PENDING", "DEFERRED"):
+                    reason = f" '{why}'" if why else ""
+                    lines.append((f"   HAND-OFF #{request_id} to {requester} ({authority})"
+                                  f"{reason} {state.lower()}: a = grant, n = refuse")[:width])
         if not self.vehicles:
             lines.append(" (no vehicle seen yet)")
         if self.links:
@@ -337,7 +383,8 @@ class Operator:
 
     Keys: Up/Down select a vehicle (or, in drive mode, change forward effort), Left/Right
     turn in drive mode, ``c`` take control, ``r`` release, ``d`` drive mode on/off,
-    space stop, ``w`` send a waypoint triangle, ``e`` emergency stop (at once; on a
+    space stop, ``w`` send a waypoint triangle, ``h`` ask the holder for a hand-off, ``a`` /
+    ``n`` grant / refuse the oldest hand-off request, ``e`` emergency stop (at once; on a
     vehicle already in emergency, ``e`` then ``y`` clears it, any other key keeps it),
     ``q`` quit.
     """
@@ -405,6 +452,20 @@ class Operator:
             self.message = f"releasing {vid}"
             return [("ControlRequest", control_request(vid, self.operator_id, self.authority,
                                                        release=True))]
+        if key == "h":
+            self.message = f"asking the holder of {vid} to hand it over"
+            return [("HandoffRequest", {"vehicle_id": vid, "operator_id": self.operator_id,
+                                        "authority": self.authority,
+                                        "explanation": f"monitor of {self.operator_id}"})]
+        if key in ("a", "n"):
+            open_ = [h for h in view.vehicles[vid].handoffs if h[3] in ("PENDING", "DEFERRED")]
+            if not open_:
+                self.message = f"{vid}: no hand-off request to answer"
+                return []
+            response = "GRANTED" if key == "a" else "DENIED"
+            self.message = f"{vid}: hand-off #{open_[0][0]} to {open_[0][1]} {response.lower()}"
+            return [("HandoffResponse", {"vehicle_id": vid, "operator_id": self.operator_id,
+                                         "request_id": open_[0][0], "response": response})]
         if key == "d":
             self.driving = not self.driving
             self.linear = self.rotational = 0.0
