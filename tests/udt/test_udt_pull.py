@@ -182,3 +182,18 @@ def test_queue_fetches_the_most_confident_image_first(tmp_path: Path, make_file)
                  == 2, 30, "both images")
     fetched = [p["image_id"] for p in bus.of("ImageProduct") if p.get("transfer_id")]
     assert fetched == ["atr-2", "atr-1"]
+
+
+def test_a_large_image_is_fetched_on_parallel_lanes(tmp_path: Path, make_file):
+    """Files of several MiB are fetched on parallel lanes (the plan starts at four)."""
+    path, content = make_file(8 << 20, "atr-21.png")
+    bus = Bus()
+    with UdtBulkChannel.ImageServer(path.parent) as server, \
+            service(tmp_path, bus, server.address) as relay:
+        relay.announce(announcement(content, 21))
+        wait_for(lambda: list((tmp_path / "relay").rglob("atr-21.png")), 60, "the fetched file")
+        wait_for(lambda: server.counters["served"] >= 1, 5, "the server's receipt")
+    (stored,) = (tmp_path / "relay").rglob("atr-21.png")
+    assert stored.read_bytes() == content
+    assert server.counters["connections"] == 5  # four lanes, then the whole-file verdict
+    assert [s["transfer_id"] for s in bus.of("ImageProduct")][-1]
