@@ -66,6 +66,7 @@ class Views:
         notes = tuple(f"{a}: {c.note}" for a, c in sorted(vehicle.controls.items()) if c.note)
         last_ms = (int((vehicle.last_seen + state.wall_offset) * 1000)
                    if vehicle.last_seen is not None else 0)
+        dialects = state.dialects(vehicle)
         return VehicleView(
             vehicle_id=vehicle.vehicle_id,
             subsystem=vehicle.subsystem,
@@ -91,7 +92,8 @@ class Views:
             emergency=vehicle.estop is not None or EMERGENCY in vehicle.statuses.values(),
             emergency_operator=vehicle.estop.operator_id if vehicle.estop else "",
             emergency_reason=vehicle.estop.reason if vehicle.estop else "",
-            dialects=self._state.dialects(vehicle),
+            dialects=tuple(dialects),
+            base_codes=getattr(dialects, "base", frozenset()),
         )
 
     def context(self, vehicle: Vehicle | None, now: float,
