@@ -134,10 +134,17 @@ def test_simulated_arm_and_pan_tilt_end_to_end(name: str, octet: int, names: lis
             lambda s: s["vehicle_id"] == vid and s["device"] == "manipulator"
             and s["quantity"] == "max_speed"
             and s["values"] == pytest.approx([0.3, 0.2, 0.05], abs=1e-3))
+        # a longer tool: the offset reads back, and the tool point moves out with it
+        await _until(
+            operator, "EndEffectorCommand",
+            {"vehicle_id": vid, "operator_id": "op1", "mode": "tool_offset", "x": 0.0,
+             "y": 0.0, "z": 0.35}, "EndEffectorPose",
+            lambda s: s["vehicle_id"] == vid and s["kind"] == "tool_offset"
+            and s["z"] == pytest.approx(0.35, abs=1e-3))
         arm = JausAddress(spec.subsystem, 1, 4)
         assert ("manipulator-1.0" in runtime.engine.dialects_of(arm)) is (name == "eod-v1")
         (endpoint,) = sim.endpoints
         assert endpoint.vehicle is not None
-        assert endpoint.vehicle.counters["commands_obeyed"] >= 3
+        assert endpoint.vehicle.counters["commands_obeyed"] >= 4
 
     asyncio.run(run())
