@@ -22,6 +22,7 @@ from edge_vis.config.deployment import (
     CommandProfile,
     ControlProfile,
     DdsProfile,
+    DdsSecurityProfile,
     DiscoveryProfile,
     EmergencyProfile,
     EventsProfile,
@@ -49,7 +50,8 @@ from edge_vis.config.vehicles import ComponentProfile, ServiceProfile, VehiclePr
 
 __all__ = [
     "DEFAULT_MINIMUM_SHARE", "DEFAULT_REPORT_PRIORITY", "AccessProfile", "BulkProfile",
-    "CommandProfile", "ComponentProfile", "ControlProfile", "DdsProfile", "DiscoveryProfile",
+    "CommandProfile", "ComponentProfile", "ControlProfile", "DdsProfile", "DdsSecurityProfile",
+    "DiscoveryProfile",
     "EmergencyProfile",
     "EventsProfile", "LimitsProfile", "LinkProfile", "OperatorEntry", "OperatorPolicy",
     "RelayProfile", "ReportRate", "ServiceProfile", "TimeProfile", "TranslatorSelection",
