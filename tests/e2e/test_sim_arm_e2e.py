@@ -4,19 +4,25 @@ real Cyclone DDS operator.
 The sim runs the shipped ``profiles/sim/arm.toml`` vehicles (moved to the test's
 addresses); the relay finds each by JAUS discovery, recognises its manipulator version from
 the services it reports, and the operator sees the joint names and limits, moves the arm
-and the pan-tilt, and changes the motion profile - each vehicle in its own wire layout.
+and the pan-tilt, and changes the motion profile and the tool offset - each vehicle in its
+own wire layout. The relay's mirrored capture then decodes with ``decode --dialect auto``.
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
+import io
+import json
 from pathlib import Path
 from typing import Any
 
 import pytest
 
+from edge_vis.cli import main
 from edge_vis.config import from_mapping
 from edge_vis.jaus.address import JausAddress
+from edge_vis.shell.mirror import Mirror
 from edge_vis.shell.relay import Runtime
 from edge_vis.tools.sim.profile import load_profile
 from edge_vis.tools.sim.runner import Simulation
@@ -78,10 +84,12 @@ def test_simulated_arm_and_pan_tilt_end_to_end(name: str, octet: int, names: lis
         "vehicles": [{"vehicle_id": vid, "subsystem": spec.subsystem}],
     }, file="e2e.toml")
 
+    capture = tmp_path / "relay.pcap"
+
     async def run() -> None:
         sim = Simulation(profile)
         await sim.start()
-        runtime = Runtime(config)
+        runtime = Runtime(config, mirror=Mirror(pcap=capture))
         operator = dds.DdsBridge(domain_id, (partition,))
         await runtime.start()
         try:
@@ -148,3 +156,20 @@ def test_simulated_arm_and_pan_tilt_end_to_end(name: str, octet: int, names: lis
         assert endpoint.vehicle.counters["commands_obeyed"] >= 4
 
     asyncio.run(run())
+    # the relay's own capture decodes as the vehicle sent it: `decode --dialect auto`
+    # learns the version from the ReportServices in it
+    decoded = _decode(capture)
+    reports = [o.get("report") or o for o in decoded]
+    report = next(r for r in reports if r.get("message") == "ReportJointMotionProfile")
+    v1 = name == "eod-v1"
+    assert report.get("dialect") == ("manipulator-1.0" if v1 else None)
+    assert list(report["fields"]) == (["motion_profile_list"] if v1
+                                      else ["joint_motion_profile_list"])
+    assert not [o for o in decoded if "error" in o]
+
+
+def _decode(capture: Path) -> list[dict[str, Any]]:
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["decode", "--dialect", "auto", str(capture)]) == 0
+    return [json.loads(line) for line in out.getvalue().splitlines()]
