@@ -182,6 +182,28 @@ def test_pan_tilt_tool_offset_and_gripper() -> None:
                                                                                       abs=0.5)
 
 
+@pytest.mark.parametrize("version", ["2.0", "1.0"])
+def test_pan_tilt_turns_at_a_commanded_velocity(version: str) -> None:
+    wire = ArmWire(version)
+    wire.advance(1.0)
+    assert M + ("PanTiltJointVelocityDriver" if version == "2.0"
+                else "PanTiltJointVelocitiesDriver") in services(wire, 5)
+    wire.control(PAN_TILT)
+    wire.talk("SetPanTiltJointVelocity", {"joint1_velocity": 0.5, "joint2_velocity": -0.25},
+              to=PAN_TILT)
+    wire.advance(1.0)
+    sensed = wire.ask("QueryPanTiltJointVelocity", to=PAN_TILT)
+    assert (sensed["joint1_velocity"], sensed["joint2_velocity"]) == pytest.approx(
+        (0.5, -0.25), abs=1e-3)
+    pose = wire.ask("QueryPanTiltJointPositions", to=PAN_TILT)
+    assert (pose["joint1_position"], pose["joint2_position"]) == pytest.approx(
+        (0.5, -0.25), abs=0.06)
+    wire.talk("Standby", to=PAN_TILT)  # out of READY: it stops
+    wire.advance(0.5)
+    commanded = wire.ask("QueryCommandedPanTiltJointVelocity", to=PAN_TILT)
+    assert commanded["joint1_velocity"] == pytest.approx(0.0, abs=1e-3)
+
+
 def test_profile_option_is_checked() -> None:
     base = {"name": "a", "subsystem": 3, "link": "udp://127.0.0.9:3794"}
     profile = parse_profile({"vehicles": [{**base, "manipulator": {}}]})

@@ -45,6 +45,7 @@ SERVICES: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
         "ManipulatorToolOffsetService", "PrimitiveEndEffector")),
         tuple(M + s for s in (
             "PrimitivePanTilt", "PanTiltJointPositionSensor", "PanTiltJointPositionDriver",
+            "PanTiltJointVelocitySensor", "PanTiltJointVelocityDriver",
             "PanTiltSpecificationService", "PanTiltMotionProfileService"))),
     "1.0": (tuple(M + s for s in (
         "PrimitiveManipulator", "ManipulatorJointPositionSensor",
@@ -52,13 +53,15 @@ SERVICES: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
         "ManipulatorJointVelocitiesDriver", "ManipulatorEndEffectorPoseSensor",
         "PrimitiveEndEffector")),
         tuple(M + s for s in (
-            "PrimitivePanTilt", "PanTiltJointPositionSensor", "PanTiltJointPositionDriver"))),
+            "PrimitivePanTilt", "PanTiltJointPositionSensor", "PanTiltJointPositionDriver",
+            "PanTiltJointVelocitySensor", "PanTiltJointVelocitiesDriver"))),
 }
 #: v1.0 answers these v2.0 services' messages from the services above (v1.0 JSIDL)
 V1_ANSWERS = (tuple(M + s for s in (
     "ManipulatorJointVelocityDriver", "ManipulatorSpecificationService",
     "ManipulatorJointMotionProfile", "ManipulatorToolOffsetService")),
-    tuple(M + s for s in ("PanTiltSpecificationService", "PanTiltMotionProfileService")))
+    tuple(M + s for s in ("PanTiltJointVelocityDriver", "PanTiltSpecificationService",
+                          "PanTiltMotionProfileService")))
 
 
 @dataclass(frozen=True, slots=True)
@@ -109,6 +112,7 @@ class Axes:
     profile: list[tuple[float, float, float]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
+        """At rest within its limits, each joint's profile its top speed."""
         self.positions = [min(max(0.0, j.low), j.high) for j in self.joints]
         self.efforts = [0.0] * len(self.joints)
         self.profile = [(j.max_speed, 2 * j.max_speed, 2 * j.max_speed) for j in self.joints]
@@ -307,6 +311,13 @@ QUERIES: dict[str, tuple[str, str, Builder]] = {
         M + "PanTiltJointPositionDriver", "ReportCommandedPanTiltJointPositions",
         lambda v, c, f: _pair(_arm(v).pan_tilt.targets or _arm(v).pan_tilt.positions,
                               "position")),
+    "QueryPanTiltJointVelocity": (M + "PanTiltJointVelocitySensor",
+                                  "ReportPanTiltJointVelocity",
+                                  lambda v, c, f: _pair(_arm(v).pan_tilt.velocities or [0.0, 0.0],
+                                                        "velocity")),
+    "QueryCommandedPanTiltJointVelocity": (
+        M + "PanTiltJointVelocityDriver", "ReportCommandedPanTiltJointVelocity",
+        lambda v, c, f: _pair(_arm(v).pan_tilt.velocities or [0.0, 0.0], "velocity")),
     "QueryPanTiltJointEffort": (M + "PrimitivePanTilt", "ReportPanTiltJointEffort",
                                 lambda v, c, f: _pair(_arm(v).pan_tilt.efforts, "effort")),
     "QueryPanTiltMotionProfile": (M + "PanTiltMotionProfileService",
@@ -379,8 +390,14 @@ def _set_tool_offset(arm: Arm, fields: dict[str, Any]) -> None:
 
 
 def _set_pan_tilt_positions(arm: Arm, fields: dict[str, Any]) -> None:
+    arm.pan_tilt.velocities = None
     arm.pan_tilt.targets = arm.pan_tilt.fit([fields["joint1_position"],
                                              fields["joint2_position"]])
+
+
+def _set_pan_tilt_velocities(arm: Arm, fields: dict[str, Any]) -> None:
+    arm.pan_tilt.targets = None
+    arm.pan_tilt.velocities = [fields["joint1_velocity"], fields["joint2_velocity"]]
 
 
 def _set_pan_tilt_profile(arm: Arm, fields: dict[str, Any]) -> None:
@@ -407,6 +424,8 @@ HANDLERS: dict[str, tuple[str, Handler]] = {
                              _driver("SetEndEffectorEffort", _set_gripper)),
     "SetPanTiltJointPositions": (M + "PanTiltJointPositionDriver",
                                  _driver("SetPanTiltJointPositions", _set_pan_tilt_positions)),
+    "SetPanTiltJointVelocity": (M + "PanTiltJointVelocityDriver",
+                                _driver("SetPanTiltJointVelocity", _set_pan_tilt_velocities)),
     "SetPanTiltJointEffort": (M + "PrimitivePanTilt",
                               _driver("SetPanTiltJointEffort", _set_pan_tilt_efforts)),
     "SetJointMotionProfile": (M + "ManipulatorJointMotionProfile",
