@@ -139,3 +139,22 @@ def test_the_iop_copy_specifications_read_as_v1() -> None:
     assert rec["max_force"] == pytest.approx(150.0, abs=0.01)
     assert read.fields["first_joint_parameters"]["prismatic_joint1_angle_rec"][
         "joint1_max_force"] == pytest.approx(300.0, abs=0.01)
+
+
+@pytest.mark.parametrize(("version", "dialect"), [("0.6", "iop"), ("1.0", "")])
+def test_iop_acceleration_is_read_as_the_reported_service_version_defines_it(
+        version: str, dialect: str) -> None:
+    """IOP publishes AccelerationStateSensor as version 0.6 (accelerations mandatory), the
+    SAE set as 1.0: an IOP vehicle reporting 1.0 sends the SAE layout."""
+    choice = CAT.speaks([("urn:jaus:jss:iop:PlatformMode", "1.0"),
+                         ("urn:jaus:jss:mobility:AccelerationStateSensor", version)])
+    assert tuple(choice) == ("iop",)
+    fields = {"acceleration_x": 0.5, "acceleration_y": 0.0, "acceleration_z": -9.75}
+    sent_as = ("iop",) if dialect else ()
+    if dialect:
+        fields |= {"roll_acceleration": 0.0, "pitch_acceleration": 0.0,
+                   "yaw_acceleration": 0.25}
+    read = CAT.decode(CAT.encode("ReportAccelerationState", fields, sent_as), choice)
+    assert read.dialect == dialect
+    assert read.fields is not None
+    assert read.fields["acceleration_z"] == pytest.approx(-9.75, abs=0.01)
