@@ -212,3 +212,14 @@ def test_profile_option_is_checked() -> None:
         parse_profile({"vehicles": [{**base, "kind": "uuv",
                                      "manipulator": {"version": "3.0"}}]})
     assert "manipulator.version" in str(err.value) and "kind = \"ugv\"" in str(err.value)
+
+
+def test_check_names_each_vehicles_manipulator(capsys: pytest.CaptureFixture[str]) -> None:
+    from pathlib import Path
+
+    from edge_vis.cli import main
+
+    shipped = Path(__file__).resolve().parents[2] / "profiles" / "sim" / "arm.toml"
+    assert main(["check", str(shipped)]) == 0
+    out = capsys.readouterr().out
+    assert "eod-v2 (ugv + manipulator v2.0" in out and "eod-v1 (ugv + manipulator v1.0" in out
