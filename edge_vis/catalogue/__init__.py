@@ -142,6 +142,8 @@ class Catalogue:
         self._recognise: dict[str, tuple[tuple[str, str], ...]] = {}
         self._dialect_names: dict[str, tuple[str, int]] = {}
         self._dialect_codecs: dict[tuple[str, int], MessageCodec] = {}
+        #: every code some dialect defines (the others never need a dialect look-up)
+        self._dialect_codes: set[int] = set()
         if defs:
             self.add(defs, source=source)
 
@@ -231,6 +233,7 @@ class Catalogue:
                 raise PluginLoadError(f"dialect {dialect.name}{where}: alias {name} names "
                                       f"0x{code:04X}, not a code of the catalogue")
         self._dialects.setdefault(dialect.name, {}).update(incoming)
+        self._dialect_codes.update(incoming)
         recognise = dict.fromkeys((*self._recognise.get(dialect.name, ()), *dialect.recognise))
         self._recognise[dialect.name] = tuple(recognise)
         for defn in incoming.values():
@@ -300,6 +303,7 @@ class Catalogue:
         other._recognise = dict(self._recognise)
         other._dialect_names = dict(self._dialect_names)
         other._dialect_codecs = dict(self._dialect_codecs)
+        other._dialect_codes = set(self._dialect_codes)
         return other
 
     # -- looking up ----------------------------------------------------------------------
@@ -388,7 +392,7 @@ class Catalogue:
             )
         code = payload[0] | payload[1] << 8
         body = bytes(payload[2:])
-        if dialects and self._dialects:
+        if dialects and code in self._dialect_codes:
             try:
                 dialect, variant = self._dialect_codec(code, dialects)
             except KeyError:
@@ -417,7 +421,7 @@ class Catalogue:
             dialects = (self._dialect_names[name_or_code][0], *dialects)
         defn = self._resolve(name_or_code)
         prefix = defn.code.to_bytes(2, "little")
-        if dialects and self._dialects:
+        if dialects and defn.code in self._dialect_codes:
             try:
                 _dialect, variant = self._dialect_codec(defn.code, dialects)
             except KeyError:
