@@ -149,7 +149,7 @@ def test_simulated_arm_and_pan_tilt_end_to_end(name: str, octet: int, names: lis
              "y": 0.0, "z": 0.35}, "EndEffectorPose",
             lambda s: s["vehicle_id"] == vid and s["kind"] == "tool_offset"
             and s["z"] == pytest.approx(0.35, abs=1e-3))
-        arm = JausAddress(spec.subsystem, 1, 4)
+        arm = JausAddress(spec.subsystem, 1, 5)
         assert ("manipulator-1.0" in runtime.engine.dialects_of(arm)) is (name == "eod-v1")
         (endpoint,) = sim.endpoints
         assert endpoint.vehicle is not None

@@ -15,7 +15,7 @@ from edge_vis.tools.sim.arm import ArmSpec
 from edge_vis.tools.sim.outputs import Send
 from edge_vis.tools.sim.profile import parse_profile
 
-ARM, PAN_TILT, NODE_MANAGER = JausAddress(101, 1, 4), JausAddress(101, 1, 5), \
+ARM, PAN_TILT, NODE_MANAGER = JausAddress(101, 1, 5), JausAddress(101, 1, 6), \
     JausAddress(101, 1, 1)
 M = "urn:jaus:jss:manipulator:"
 V1 = ("manipulator-1.0",)
@@ -66,11 +66,11 @@ def velocity(value: float) -> dict[str, Any]:
 def test_v2_reports_the_v2_services_and_names_its_joints() -> None:
     wire = ArmWire("2.0")
     wire.advance(1.0)
-    arm = services(wire, 4)
+    arm = services(wire, 5)
     assert arm[M + "ManipulatorSpecificationService"] == (2, 0)
     assert arm[M + "ManipulatorJointMotionProfile"] == (2, 0)
     assert arm["urn:jaus:jss:core:AccessControl"] == (1, 1)
-    assert services(wire, 5)[M + "PanTiltSpecificationService"] == (2, 0)
+    assert services(wire, 6)[M + "PanTiltSpecificationService"] == (2, 0)
     spec_fields = wire.ask("QueryManipulatorSpecifications", {"presence_vector": 0xFF})
     assert [n["description"] for n in spec_fields["joint_names_list"]] == [
         "turret", "shoulder", "slide"]
@@ -82,11 +82,11 @@ def test_v2_reports_the_v2_services_and_names_its_joints() -> None:
 def test_v1_reports_v1_services_and_answers_in_the_v1_layouts() -> None:
     wire = ArmWire("1.0")
     wire.advance(1.0)
-    arm = services(wire, 4)
+    arm = services(wire, 5)
     assert arm[M + "ManipulatorJointVelocitiesDriver"] == (1, 0)
     assert M + "ManipulatorSpecificationService" not in arm  # v1.0 has no such service
     assert M + "ManipulatorJointVelocityDriver" not in arm
-    assert M + "PanTiltMotionProfileService" not in services(wire, 5)
+    assert M + "PanTiltMotionProfileService" not in services(wire, 6)
     # ... yet its v1.0 services answer what v2.0 gave services of their own
     spec_fields = wire.ask("QueryManipulatorSpecifications", {"presence_vector": 0xFF})
     assert "joint_names_list" not in spec_fields
@@ -187,7 +187,7 @@ def test_pan_tilt_turns_at_a_commanded_velocity(version: str) -> None:
     wire = ArmWire(version)
     wire.advance(1.0)
     assert M + ("PanTiltJointVelocityDriver" if version == "2.0"
-                else "PanTiltJointVelocitiesDriver") in services(wire, 5)
+                else "PanTiltJointVelocitiesDriver") in services(wire, 6)
     wire.control(PAN_TILT)
     wire.talk("SetPanTiltJointVelocity", {"joint1_velocity": 0.5, "joint2_velocity": -0.25},
               to=PAN_TILT)
@@ -223,3 +223,15 @@ def test_check_names_each_vehicles_manipulator(capsys: pytest.CaptureFixture[str
     assert main(["check", str(shipped)]) == 0
     out = capsys.readouterr().out
     assert "eod-v2 (ugv + manipulator v2.0" in out and "eod-v1 (ugv + manipulator v1.0" in out
+
+
+def test_a_vehicle_with_iop_services_and_a_manipulator_has_all_its_components() -> None:
+    from dataclasses import replace
+
+    wire = ArmWire("2.0")
+    wire.vehicle = type(wire.vehicle)(replace(wire.vehicle.spec, iop=True), wire.catalogue)
+    wire.advance(1.0)
+    components = {c.component for c in wire.vehicle.layout}
+    assert components == {1, 2, 3, 4, 5, 6}
+    assert M + "PrimitiveManipulator" in services(wire, 5)
+    assert "urn:jaus:jss:iop:EnhancedAccessControl" in services(wire, 4)

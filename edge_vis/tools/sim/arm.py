@@ -1,8 +1,8 @@
 """A simulated manipulator arm and pan-tilt, in manipulator v2.0 or v1.0. No I/O.
 
 A vehicle with ``[vehicles.manipulator]`` in its sim profile gets two more components: an
-arm (component 4: three joints - a turret and a shoulder that turn, a slide that extends -
-with a gripper) and a pan-tilt (component 5). ``version = "1.0"`` makes both offer the
+arm (component 5: three joints - a turret and a shoulder that turn, a slide that extends -
+with a gripper) and a pan-tilt (component 6). ``version = "1.0"`` makes both offer the
 v1.0 services, speak the v1.0 definitions on the wire (dialect ``manipulator-1.0``: plural
 names, ``motion_profile_list``, no joint names in the specifications) and answer the
 queries v1.0 services answered (specifications from the sensors and drivers, motion
@@ -32,7 +32,7 @@ if TYPE_CHECKING:
 
 M = "urn:jaus:jss:manipulator:"
 V1_DIALECT = "manipulator-1.0"
-ARM_COMPONENT, PAN_TILT_COMPONENT = 4, 5
+ARM_COMPONENT, PAN_TILT_COMPONENT = 5, 6
 _BASE = (svc.TRANSPORT, svc.EVENTS, svc.ACCESS_CONTROL, svc.MANAGEMENT, svc.LIVENESS)
 
 #: version -> (arm services, pan-tilt services) as the vehicle reports them
