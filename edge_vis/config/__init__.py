@@ -29,6 +29,7 @@ from edge_vis.config.deployment import (
     LinkProfile,
     OperatorEntry,
     RelayProfile,
+    ServingProfile,
     TimeProfile,
     TranslatorSelection,
 )
@@ -52,7 +53,8 @@ __all__ = [
     "CommandProfile", "ComponentProfile", "ControlProfile", "DdsProfile", "DiscoveryProfile",
     "EmergencyProfile",
     "EventsProfile", "LimitsProfile", "LinkProfile", "OperatorEntry", "OperatorPolicy",
-    "RelayProfile", "ReportRate", "ServiceProfile", "TimeProfile", "TranslatorSelection",
+    "RelayProfile", "ReportRate", "ServiceProfile", "ServingProfile", "TimeProfile",
+    "TranslatorSelection",
     "VehicleProfile",
     "default_profile_path", "from_mapping", "link_problems", "load_default_profile",
     "load_profile", "load_vehicle_profile", "read_deployment", "read_profile_file", "read_toml",

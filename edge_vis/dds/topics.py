@@ -88,6 +88,7 @@ _STANDARD_KINDS: dict[type[IdlStruct], TopicKind] = {
     model.WaypointPlan: TopicKind.COMMAND,
     model.MissionStatus: TopicKind.STATE,
     model.LinkStatus: TopicKind.STATE,
+    model.RelayStatus: TopicKind.STATE,
     model.HealthStatus: TopicKind.STATE,
     model.RangeScan: TopicKind.TELEMETRY,
     model.SensorInfo: TopicKind.STATE,

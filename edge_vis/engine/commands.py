@@ -35,6 +35,9 @@ class Commands:
         if vehicle is None:
             state.counters["commands_unknown_vehicle"] += 1
             return
+        if not state.serves(vehicle):  # the relay serving it sends it (edge_vis.engine.duty)
+            state.counters["commands_other_relay"] += 1
+            return
         state.touch(vehicle)
         arb = vehicle.arbitration
         reason = ""

@@ -63,6 +63,9 @@ class EngineState:
         #: a subscription started or stopped polling: the rates must be planned again
         self.plan_dirty = False
         self.shutting_down = False
+        #: several relays may reach a vehicle: only the vehicles whose ``serving`` is set
+        #: are served (:mod:`edge_vis.engine.duty`); False: every vehicle is
+        self.arbitrated = False
         #: ShutdownComplete was emitted: the engine takes no more input
         self.done = False
         self._catalogue = catalogue
@@ -79,6 +82,11 @@ class EngineState:
     def encode_query(self, name: str, fields: Mapping[str, Any]) -> bytes:
         """The complete query message a CreateEvent carries."""
         return self.catalogue.encode(name, fields)
+
+    def serves(self, vehicle: Vehicle) -> bool:
+        """This relay serves ``vehicle``: creates its events, holds its control, sends its
+        commands and publishes its samples."""
+        return vehicle.serving or not self.arbitrated
 
     def touch(self, vehicle: Vehicle) -> None:
         """``vehicle``'s state changed: the next pass must visit it."""

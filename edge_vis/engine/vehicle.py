@@ -74,6 +74,13 @@ class Vehicle:
     announced_by: VehicleProfile | None = None
     #: the emergency stop set through the relay, until cleared (:mod:`edge_vis.engine.estop`)
     estop: Estop | None = None
+    #: this relay serves it (events, control, commands, samples); with one relay, always
+    #: (:mod:`edge_vis.engine.duty` decides when several relays share a DDS domain)
+    serving: bool = False
+    #: one bit per liveness period, newest lowest: heard from in that period
+    heard: int = 0
+    probes: int = 0
+    last_probe_at: float | None = None
 
     def __post_init__(self) -> None:
         self.discovery.label = self.vehicle_id

@@ -91,6 +91,7 @@ class Views:
             emergency=vehicle.estop is not None or EMERGENCY in vehicle.statuses.values(),
             emergency_operator=vehicle.estop.operator_id if vehicle.estop else "",
             emergency_reason=vehicle.estop.reason if vehicle.estop else "",
+            relay=state.profile.relay_name if state.serves(vehicle) else "",
         )
 
     def context(self, vehicle: Vehicle | None, now: float,

@@ -131,5 +131,13 @@ class ShutdownComplete:
     unanswered: int = 0
 
 
+@dataclass(frozen=True, slots=True)
+class Withdraw:
+    """Stop writing every DDS instance of ``vehicle_id``: another relay serves it now
+    (emitted by the engine, :mod:`edge_vis.engine.duty`; translators do not return it)."""
+
+    vehicle_id: str
+
+
 Action = Union[SendMessage, Publish, Command, DeclareVehicle, EmergencyRequest,  # noqa: UP007
-               ShutdownComplete]
+               ShutdownComplete, Withdraw]

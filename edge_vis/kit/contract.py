@@ -147,6 +147,8 @@ class VehicleView:
     emergency_reason: str = ""
     holders: tuple[HolderView, ...] = ()
     clock: ClockView | None = None
+    #: the relay serving it (this one's name while it does; see ``[serving]``)
+    relay: str = ""
 
 
 @dataclass(frozen=True, slots=True)
