@@ -177,7 +177,7 @@ class Duty:
                     claims.append(Claim(relay, entry.score, entry.serving))
                     if entry.serving:
                         others.append(relay)
-            chosen = choose_server(claims, state.profile.serving.hysteresis)
+            chosen = choose_server(claims, state.profile.serving.hysteresis, vid)
             if vehicle.serving and chosen != self.name:
                 self._stop(vehicle, chosen, now)
                 changed = True

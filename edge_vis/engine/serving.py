@@ -13,8 +13,10 @@ stand by. The rules, in order:
    vehicle back and forth, a clearly better link or a profile preference does.
 3. Two incumbents (two relays that decided before they saw each other): the better one,
    by score then by name, keeps it; the other yields.
-4. No incumbent: the best candidate by score, ties broken by the lower name, so two
-   relays started at the same instant with equal links name the same winner.
+4. No incumbent: the best candidate by score. Equal scores are broken by a hash of the
+   vehicle's id and the relay's name (rendezvous hashing), then by the lower name: two
+   relays started at the same instant with equal links name the same winner, and a
+   fleet within reach of several relays spreads over them instead of piling on one.
 
 A relay acts on the answer with two more rules kept by :mod:`~edge_vis.engine.duty`: it
 starts serving only when no other live relay still claims the vehicle (so a hand-over
@@ -24,6 +26,7 @@ for the settle time (so its peers have seen it).
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -38,21 +41,27 @@ class Claim:
     serving: bool = False
 
 
-def _better(claim: Claim) -> tuple[float, str]:
-    """Sort key: higher score first, then the lower name (negated for ``min``)."""
-    return (-claim.score, claim.relay)
+def tie_weight(vehicle_id: str, relay: str) -> int:
+    """The rendezvous weight of ``relay`` for ``vehicle_id``: the same on every relay."""
+    digest = hashlib.blake2b(f"{vehicle_id}\0{relay}".encode(), digest_size=8).digest()
+    return int.from_bytes(digest, "big")
 
 
-def choose_server(claims: Iterable[Claim], hysteresis: float) -> str | None:
-    """The relay that should serve the vehicle, or None when no relay reaches it."""
+def choose_server(claims: Iterable[Claim], hysteresis: float,
+                  vehicle_id: str = "") -> str | None:
+    """The relay that should serve ``vehicle_id``, or None when no relay reaches it."""
     candidates = [c for c in claims if c.score > 0]
     if not candidates:
         return None
-    best = min(candidates, key=_better)
+
+    def better(claim: Claim) -> tuple[float, int, str]:  # for min(): best first
+        return (-claim.score, -tie_weight(vehicle_id, claim.relay), claim.relay)
+
+    best = min(candidates, key=better)
     incumbents = [c for c in candidates if c.serving]
     if not incumbents:
         return best.relay
-    incumbent = min(incumbents, key=_better)
+    incumbent = min(incumbents, key=better)
     if best.score > incumbent.score + hysteresis:
         return best.relay
     return incumbent.relay
@@ -67,4 +76,4 @@ def link_quality(heard: int, probes: int, window: int) -> float:
     return (heard & ((1 << span) - 1)).bit_count() / span
 
 
-__all__ = ["Claim", "choose_server", "link_quality"]
+__all__ = ["Claim", "choose_server", "link_quality", "tie_weight"]

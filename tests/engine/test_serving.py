@@ -23,14 +23,12 @@ TABLE: list[tuple[list[Claim], float, str | None, str]] = [
     ([], 0.25, None, "nobody reaches it"),
     ([C("a", 0.0), C("b", 0.0)], 0.25, None, "a score of 0 is no candidate"),
     ([C("a", 1.0)], 0.25, "a", "the only candidate"),
-    ([C("b", 1.0), C("a", 1.0)], 0.25, "a", "equal scores: the lower name (same instant)"),
     ([C("a", 0.6), C("b", 1.0)], 0.25, "b", "nobody serves: the best score"),
     ([C("a", 0.8, True), C("b", 1.0)], 0.25, "a", "incumbent within hysteresis keeps it"),
     ([C("a", 0.6, True), C("b", 1.0)], 0.25, "b", "better by more than hysteresis"),
     ([C("a", 0.75, True), C("b", 1.0)], 0.25, "a", "exactly hysteresis: no move"),
     ([C("a", 1.0, True), C("b", 2.0)], 0.25, "b", "a profile preference (+1) moves it"),
     ([C("a", 0.0, True), C("b", 0.2)], 0.25, "b", "the incumbent lost it: any reacher"),
-    ([C("a", 1.0, True), C("b", 1.0, True)], 0.25, "a", "two incumbents: lower name"),
     ([C("a", 0.6, True), C("b", 1.0, True)], 0.25, "b", "two incumbents: better score"),
     ([C("a", 0.9, True), C("b", 1.0, True), C("c", 1.2)], 0.25, "b",
      "two incumbents, challenger within hysteresis of the better one"),
@@ -44,6 +42,23 @@ def test_choose_server(claims: list[Claim], hysteresis: float, chosen: str | Non
                        why: str) -> None:
     assert choose_server(claims, hysteresis) == chosen, why
     assert choose_server(reversed(claims), hysteresis) == chosen, "order must not matter"
+
+
+def test_equal_scores_agree_everywhere_and_spread_the_fleet() -> None:
+    """Two relays started at the same instant with equal links: every relay names the
+    same one for a vehicle (whatever order it lists the claims in), and a fleet in reach
+    of three relays spreads over all three rather than piling on the lowest name."""
+    wins = {"r1": 0, "r2": 0, "r3": 0}
+    for n in range(300):
+        vehicle = f"ugv-{n}"
+        claims = [C("r1", 1.0), C("r2", 1.0), C("r3", 1.0)]
+        chosen = choose_server(claims, 0.25, vehicle)
+        assert chosen is not None
+        assert choose_server(reversed(claims), 0.25, vehicle) == chosen
+        both = [C("r1", 1.0, True), C("r2", 1.0, True), C("r3", 1.0, True)]
+        assert choose_server(both, 0.25, vehicle) == chosen, "split brain: the same one stays"
+        wins[chosen] += 1
+    assert all(60 < count < 140 for count in wins.values()), wins
 
 
 @pytest.mark.parametrize("heard,probes,quality", [
@@ -118,6 +133,16 @@ class Pair:
                             out += [(other, a) for a in peer.drain()]
         return out
 
+    def start(self) -> None:
+        """Both discover the robot and agree; then ``a`` names the server, ``b`` the
+        relay standing by (which one wins equal links is the rendezvous hash's)."""
+        discover_both(self)
+        self.run(2.0)
+        (server,) = self.serving()
+        if server == "b":
+            self.a, self.b = self.b, self.a
+            self.relays = {"a": self.a, "b": self.b}
+
     def serving(self) -> set[str]:
         return {n for n, h in self.relays.items()
                 if self.alive[n] and (v := h.engine.vehicle(VID)) is not None and v.serving}
@@ -132,21 +157,21 @@ def test_two_relays_started_together_agree_on_one(catalogue: Any) -> None:
     pair = Pair(catalogue)
     discover_both(pair)
     out = pair.run(3.0)
-    assert pair.serving() == {"a"}, "equal links: the lower name serves, the other stands by"
-    b_sent = {a.name for n, a in out if n == "b" and hasattr(a, "name")}
+    (server,) = pair.serving()  # equal links: one serves, the other stands by
+    standby = "b" if server == "a" else "a"
+    b_sent = {a.name for n, a in out if n == standby and hasattr(a, "name")}
     assert b_sent <= {"QueryHeartbeatPulse", "QueryStatus", "QueryIdentification"}, \
         f"a relay standing by keeps to liveness, sent {b_sent}"
-    assert not [a for n, a in out if n == "b" and isinstance(a, Publish)
+    assert not [a for n, a in out if n == standby and isinstance(a, Publish)
                 and a.topic != "RelayStatus"], "a relay standing by publishes nothing"
-    assert published([a for n, a in out if n == "a"], "GlobalPose")
-    status = published([a for n, a in out if n == "a"], "VehicleStatus")[-1]
-    assert status["relay"] == "42.1.1"
+    assert published([a for n, a in out if n == server], "GlobalPose")
+    status = published([a for n, a in out if n == server], "VehicleStatus")[-1]
+    assert status["relay"] == str(pair.relays[server].engine.profile.jaus_id)
 
 
 def test_commands_go_through_the_serving_relay_only(catalogue: Any) -> None:
     pair = Pair(catalogue)
-    discover_both(pair)
-    pair.run(2.0)
+    pair.start()
     for h in (pair.a, pair.b):
         take_control(h)
     pair.run(0.5)
@@ -160,8 +185,7 @@ def test_commands_go_through_the_serving_relay_only(catalogue: Any) -> None:
 
 def test_serving_relay_gone_is_taken_over_with_its_operator(catalogue: Any) -> None:
     pair = Pair(catalogue)
-    discover_both(pair)
-    pair.run(2.0)
+    pair.start()
     take_control(pair.a)  # the operator's request reached only the serving relay
     out = pair.run(0.5)
     assert pair.b.engine.vehicle(VID).arbitration.holder.operator_id == "op1", \
@@ -179,8 +203,7 @@ def test_serving_relay_gone_is_taken_over_with_its_operator(catalogue: Any) -> N
 
 def test_relay_losing_the_vehicle_hands_it_over(catalogue: Any) -> None:
     pair = Pair(catalogue)
-    discover_both(pair)
-    pair.run(2.0)
+    pair.start()
     assert pair.serving() == {"a"}
     pair.hears["a"] = False  # a's radio path to the robot fades
     out = pair.run(4.0)
@@ -191,8 +214,7 @@ def test_relay_losing_the_vehicle_hands_it_over(catalogue: Any) -> None:
 
 def test_quality_wobble_within_hysteresis_does_not_move_it(catalogue: Any) -> None:
     pair = Pair(catalogue)
-    discover_both(pair)
-    pair.run(2.0)
+    pair.start()
     before = pair.a.engine.counters["handovers"]
     for _ in range(6):  # one liveness answer in five lost, now and then
         pair.hears["a"] = False
@@ -203,17 +225,34 @@ def test_quality_wobble_within_hysteresis_does_not_move_it(catalogue: Any) -> No
     assert pair.a.engine.counters["handovers"] == before
 
 
-def test_profile_preference_moves_the_vehicle(catalogue: Any) -> None:
-    pair = Pair(catalogue, b={"prefer": [VID]})
+@pytest.mark.parametrize("preferred", ["a", "b"])
+@pytest.mark.parametrize("key,value", [("prefer", [VID]), ("preference", 2.0)])
+def test_profile_preference_picks_the_relay(catalogue: Any, preferred: str, key: str,
+                                            value: Any) -> None:
+    pair = Pair(catalogue, **{preferred: {key: value}})
     discover_both(pair)
     pair.run(3.0)
+    assert pair.serving() == {preferred}
+
+
+def test_profile_preference_moves_a_served_vehicle(catalogue: Any) -> None:
+    """A relay whose profile now prefers the vehicle (a reload) takes it from the
+    relay serving it, through a planned hand-over."""
+    import dataclasses
+
+    pair = Pair(catalogue)
+    pair.start()
+    engine = pair.b.engine
+    engine.profile = dataclasses.replace(engine.profile, serving=dataclasses.replace(
+        engine.profile.serving, prefer=(VID,)))
+    pair.run(1.0)
     assert pair.serving() == {"b"}
+    assert pair.a.engine.counters["handovers"] == 1
 
 
 def test_leaving_relay_hands_over_at_once(catalogue: Any) -> None:
     pair = Pair(catalogue)
-    discover_both(pair)
-    pair.run(2.0)
+    pair.start()
     pair.a.engine.shutdown(pair.a.now)
     leaving = statuses(pair.a.drain())
     assert leaving and leaving[-1]["leaving"]
@@ -228,8 +267,7 @@ def test_emergency_stop_is_sent_by_a_relay_standing_by(catalogue: Any) -> None:
     """Safety first: SetEmergency is accepted from any client, so the stop goes out from
     every relay that reaches the vehicle, in case the one serving it is dead or cut off."""
     pair = Pair(catalogue)
-    discover_both(pair)
-    pair.run(2.0)
+    pair.start()
     assert not pair.b.engine.vehicle(VID).serving
     out = pair.b.sample("EmergencyCommand", {"vehicle_id": VID, "operator_id": "op1",
                                              "authority": 10, "action": "SET"})
