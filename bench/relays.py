@@ -111,9 +111,9 @@ class Bench:
     def start_sim(self) -> None:
         path = self.dir / "fleet.toml"
         path.write_text(sim_profile(self.args.vehicles))
-        self.sim = subprocess.Popen([EDGE_VIS, "sim", "--profile", str(path)],
-                                    stdout=open(self.dir / "sim.log", "wb"),
-                                    stderr=subprocess.STDOUT)
+        with open(self.dir / "sim.log", "wb") as log:
+            self.sim = subprocess.Popen([EDGE_VIS, "sim", "--profile", str(path)],
+                                        stdout=log, stderr=subprocess.STDOUT)
 
     def start_relay(self, i: int) -> None:
         peers = ",".join(f"{vehicle_ip(v)}:3794"
@@ -122,9 +122,9 @@ class Bench:
         path.write_text(RELAY.format(jaus_id=f"{201 + i}.1.1", ip=f"{NET}.{1 + i}",
                                      peers=peers, domain=self.domain,
                                      partition=self.partition))
-        self.procs[i] = subprocess.Popen([EDGE_VIS, "run", "--profile", str(path)],
-                                         stdout=open(self.dir / f"relay-{i}.log", "ab"),
-                                         stderr=subprocess.STDOUT)
+        with open(self.dir / f"relay-{i}.log", "ab") as log:
+            self.procs[i] = subprocess.Popen([EDGE_VIS, "run", "--profile", str(path)],
+                                             stdout=log, stderr=subprocess.STDOUT)
 
     def stop(self) -> None:
         for proc in [*self.procs.values(), self.sim]:
