@@ -186,3 +186,31 @@ def test_emergency_stop_while_serving_relay_dead(tmp_path: Path, domain_id: int,
         no_command_without_control(group, fault_record)
 
     run(group, body)
+
+
+def test_emergency_set_and_cleared_through_two_relays(tmp_path: Path, domain_id: int,
+                                                      partition: str,
+                                                      fault_record: FaultResult) -> None:
+    """Both relays set the stop (the one standing by too), so both must clear it: the
+    operator's one CLEAR reaches both, and the vehicle leaves EMERGENCY."""
+    fault_record.fault = "E-stop set+clear, 2 relays"
+    group = RelayGroup(tmp_path, domain_id, partition, 2, control_timeout=CONTROL_TIMEOUT)
+
+    def in_emergency() -> bool:
+        return all(c.state == 5 for c in group.sim.components.values() if c.state is not None)
+
+    async def body() -> None:
+        await establish(group)
+        group.driving = False
+        group.emergency("SET")
+        await until(in_emergency, 2.0, "the vehicle in EMERGENCY")
+        await asyncio.sleep(0.5)  # the relay standing by sets it too
+        setters = {s for c in group.sim.components.values() for s in c.emergency_ids}
+        assert setters == {relay_id(0), relay_id(1)}, f"set by {setters}"
+        group.emergency("CLEAR")
+        took = await until(lambda: not in_emergency(), 5.0, "the vehicle out of EMERGENCY")
+        fault_record.recovery_s = took
+        fault_record.checks.append(f"set by both relays, cleared in {took:.2f} s")
+        no_command_without_control(group, fault_record)
+
+    run(group, body)
