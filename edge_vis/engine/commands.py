@@ -37,6 +37,8 @@ class Commands:
             return
         if not state.serves(vehicle):  # the relay serving it sends it (edge_vis.engine.duty)
             state.counters["commands_other_relay"] += 1
+            vehicle.not_sent_at.append(now)  # told if this relay takes over (duty)
+            del vehicle.not_sent_at[:-64]
             return
         state.touch(vehicle)
         arb = vehicle.arbitration

@@ -18,7 +18,8 @@ for which operator it holds it. From its peers' samples and its own, each relay 
 A relay not heard for ``lease`` seconds (its process died, its host lost the network) is
 gone; a relay that stops says so (``leaving``). Standing by costs the liveness probes
 only; commands for a vehicle served elsewhere are counted (``commands_other_relay``) and
-not sent, an emergency stop is sent by every relay that reaches the vehicle
+not sent (those that came after a dead server's last sign of life are reported in
+ControlStatus when this relay takes over), an emergency stop is sent by every relay that reaches the vehicle
 (:mod:`edge_vis.engine.estop`).
 """
 
@@ -83,6 +84,8 @@ class Duty:
         #: vehicle id -> the relay that served it last (for the take-over log line)
         self.served_by: dict[str, str] = {}
         self.leaving = False
+        #: relay -> when it was last heard, for the relays found gone
+        self._gone: dict[str, float] = {}
 
     @property
     def name(self) -> str:
@@ -134,6 +137,7 @@ class Duty:
             if now - peer.heard_at > lease:
                 log.warning("relay %s gone: not heard for %.1f s", relay, now - peer.heard_at)
                 self._state.counters["relays_gone"] += 1
+                self._gone[relay] = peer.heard_at
                 del self.peers[relay]
         self._decide(now, publish=False)
         self._publish(now)
@@ -200,9 +204,11 @@ class Duty:
         holder = vehicle.arbitration.holder
         if previous and previous != self.name:
             state.counters["takeovers"] += 1
-            gone = "gone" if previous not in self.peers else "handed over"
+            gone = "gone" if previous in self._gone else "handed over"
             log.warning("vehicle %s: taking over from relay %s (%s)%s", vehicle.vehicle_id,
                         previous, gone, f", control for {holder.operator_id}" if holder else "")
+            if previous in self._gone:
+                self._report_unsent(vehicle, previous, self._gone[previous])
         else:
             log.info("vehicle %s: serving", vehicle.vehicle_id)
         for sub in vehicle.subscriptions.values():  # cancelled when it stood by: again
@@ -210,6 +216,18 @@ class Duty:
                 sub.on_lost()
         self._setup(vehicle, now)
         self._changed(vehicle, "serving", now)
+
+    def _report_unsent(self, vehicle: Vehicle, previous: str, last_heard: float) -> None:
+        """Commands that came after the dead relay's last sign of life may never have
+        been sent (by it or anyone): not resent (it may have sent some, and a stale
+        command must not move a vehicle), but said in ControlStatus, not lost silently."""
+        unsent = sum(1 for t in vehicle.not_sent_at if t > last_heard)
+        vehicle.not_sent_at.clear()
+        if unsent:
+            self._state.counters["commands_unsent_in_takeover"] += unsent
+            vehicle.arbitration.last_rejection = (
+                f"{unsent} command(s) arrived while relay {previous} was failing and may "
+                f"not have been sent")
 
     def _stop(self, vehicle: Vehicle, chosen: str | None, now: float) -> None:
         state = self._state

@@ -81,6 +81,8 @@ class Vehicle:
     heard: int = 0
     probes: int = 0
     last_probe_at: float | None = None
+    #: when commands for it arrived while another relay served it (newest last, bounded)
+    not_sent_at: list[float] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         self.discovery.label = self.vehicle_id

@@ -191,9 +191,15 @@ def test_serving_relay_gone_is_taken_over_with_its_operator(catalogue: Any) -> N
     assert pair.b.engine.vehicle(VID).arbitration.holder.operator_id == "op1", \
         "the relay standing by knows for whom the vehicle is held, from RelayStatus"
     pair.alive["a"] = False  # killed: no goodbye
+    pair.b.sample("WrenchEffortCommand", WRENCH)  # a's job still, as far as b knows
+    pair.b.sample("WrenchEffortCommand", WRENCH)
     out = pair.run(2.0)
     assert pair.serving() == {"b"}
     b = [a for n, a in out if n == "b"]
+    control = published(b, "ControlStatus")[0]
+    assert control["last_rejection"].startswith("2 command(s) arrived while relay 4"), \
+        "commands the dead relay may not have sent are reported, not resent"
+    assert not [m for m in sent(b, "SetWrenchEffort")], "nor sent late"
     assert sent(b, "CreateEvent") and sent(b, "RequestControl"), \
         "the new server re-creates events and takes control for the operator"
     assert pair.b.engine.counters["takeovers"] == 1
