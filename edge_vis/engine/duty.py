@@ -19,8 +19,8 @@ A relay not heard for ``lease`` seconds (its process died, its host lost the net
 gone; a relay that stops says so (``leaving``). Standing by costs the liveness probes
 only; commands for a vehicle served elsewhere are counted (``commands_other_relay``) and
 not sent (those that came after a dead server's last sign of life are reported in
-ControlStatus when this relay takes over), an emergency stop is sent by every relay that reaches the vehicle
-(:mod:`edge_vis.engine.estop`).
+ControlStatus when this relay takes over); an emergency stop is sent by every relay that
+reaches the vehicle (:mod:`edge_vis.engine.estop`).
 """
 
 from __future__ import annotations
