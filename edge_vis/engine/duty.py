@@ -122,7 +122,7 @@ class Duty:
                                                 int(v.get("authority", 0)))
             for v in sample.get("vehicles", ()) or ()}
         for vehicle_id, entry in peer.vehicles.items():
-            if entry.serving:
+            if entry.serving and vehicle_id in self._state.by_id:  # bounded by our table
                 self.served_by[vehicle_id] = relay
                 self._mirror_holder(vehicle_id, entry, now)
         if before != {v: e.serving for v, e in peer.vehicles.items()}:
