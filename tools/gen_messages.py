@@ -80,6 +80,28 @@ class SetSpec:
     notes: list[str] = field(default_factory=list)
     #: code -> name of the message to keep when one reading gives a code twice
     prefer: dict[int, str] = field(default_factory=dict)
+    #: reading label -> the dialect its different definitions form (see :class:`DialectSpec`)
+    dialects: dict[str, DialectSpec] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class DialectSpec:
+    """A reading whose definitions of shared codes are kept as a dialect of the set:
+    ``name``, the ``(URI prefix, version prefix)`` pairs that recognise a vehicle speaking
+    it, and a line saying what it is."""
+
+    name: str
+    recognise: tuple[tuple[str, str], ...]
+    doc: str
+
+
+MANIPULATOR_V1 = DialectSpec(
+    "manipulator-1.0", (("urn:jaus:jss:manipulator:", "1."),),
+    "manipulator v1.0: plural names, motion profiles and specifications as v1.0 defines them")
+IOP = DialectSpec(
+    "iop", (("urn:jaus:jss:iop:", ""),),
+    "the Army IOP readings of SAE messages (optional speed and acceleration, stabilizer "
+    "reports)")
 
 
 SETS = [
@@ -96,6 +118,7 @@ SETS = [
         "mobility", "JAUS Mobility Service Set (SAE AS6009), version 1.0",
         ("JTS mobility v1.0", ("jsidl/urn.jaus.jss.mobility",)),
         (("IOP mobility v1.0", ("jsidl-iop/urn.jaus.jss.mobility",)),),
+        dialects={"IOP mobility v1.0": IOP},
     ),
     SetSpec(
         "environment", "JAUS Environment Sensing Service Set (SAE AS6060), version 1.0",
@@ -111,11 +134,14 @@ SETS = [
                                       "jsidl-iop/urn.jaus.jss.core-v1.1")),
             ("IOP manipulator (older copy)", ("jsidl-iop/urn.jaus.jss.manipulator",)),
         ),
+        dialects={"JTS manipulator v1.0": MANIPULATOR_V1,
+                  "IOP manipulator (older copy)": MANIPULATOR_V1},
     ),
     SetSpec(
         "ugv", "JAUS Unmanned Ground Vehicle Service Set (SAE AS6091), version 1.0",
         ("JTS ugv v1.0", ("jsidl/urn.jaus.jss.ugv",)),
         (("IOP ugv v1.0", ("jsidl-iop/urn.jaus.jss.ugv",)),),
+        dialects={"IOP ugv v1.0": IOP},
     ),
     SetSpec(
         "iop", "Army IOP public services (urn:jaus:jss:iop)",
@@ -259,6 +285,35 @@ class Chosen:
     messages: dict[int, MessageDef] = field(default_factory=dict)
     #: (code, kept name, other reading label, other name, difference)
     differences: list[tuple[int, str, str, str, str]] = field(default_factory=list)
+    #: dialect name -> its spec, its definitions by code and its further names
+    dialects: dict[str, DialectSpec] = field(default_factory=dict)
+    variants: dict[str, dict[int, MessageDef]] = field(default_factory=dict)
+    aliases: dict[str, dict[str, int]] = field(default_factory=dict)
+    #: dialect name -> the reading that defines it first (later ones add names only)
+    first: dict[str, str] = field(default_factory=dict)
+
+    def offer_variant(self, dialect: DialectSpec, label: str, kept: MessageDef,
+                      msg: MessageDef, same_layout: bool) -> str | None:
+        """Keep ``msg`` (a reading of ``dialect``) beside ``kept``; None when it is kept
+        (as a definition of the dialect or another name of one), else why not."""
+        self.dialects.setdefault(dialect.name, dialect)
+        first = self.first.setdefault(dialect.name, label) == label
+        variants = self.variants.setdefault(dialect.name, {})
+        aliases = self.aliases.setdefault(dialect.name, {})
+        earlier = variants.get(msg.code)
+        if earlier is None:
+            if same_layout and not first:
+                aliases.setdefault(msg.name, msg.code)
+            elif same_layout or first:
+                variants[msg.code] = msg
+            else:
+                return f"{dialect.name} defines it as {kept.name}"
+            return None
+        if message_diff(earlier, msg) is not None:
+            return f"{dialect.name} already defines it as {earlier.name}"
+        if msg.name != earlier.name and msg.name != kept.name:
+            aliases.setdefault(msg.name, msg.code)
+        return None
 
 
 @dataclass
@@ -291,12 +346,23 @@ def build(root: Path) -> tuple[list[Chosen], list[LeftOut], list[tuple[str, str]
                                      "another message with this code, left out"))
             return
         d = message_diff(kept, msg)
+        dialect = this.spec.dialects.get(label) if holder is this else None
         if d is None:
             holder.messages[msg.code] = _merge(kept, msg)
             if kept.name != msg.name:
+                if dialect is not None:
+                    this.offer_variant(dialect, label, kept, msg, same_layout=True)
                 holder.differences.append((msg.code, kept.name, label, msg.name,
                                            "same layout under another name"))
             return
+        why = None if dialect is None else this.offer_variant(dialect, label, kept, msg, False)
+        if dialect is not None and why is None:
+            holder.differences.append((msg.code, kept.name, label, msg.name,
+                                       f"{d}; dialect {dialect.name}"))
+            return
+        if why is not None:
+            earlier = this.variants[dialect.name][msg.code] if dialect else kept
+            d = f"{why}: {message_diff(earlier, msg)}"
         where = "the kept " if holder is this else f"{holder.spec.module}."
         named = f"; named {msg.name}" if msg.name != kept.name else ""
         left.append(LeftOut(msg.code, msg.name, label,
@@ -560,13 +626,7 @@ def _children(t: FieldType) -> list[FieldType]:
     return []
 
 
-def write_module(chosen: Chosen, sources: str) -> str:
-    spec = chosen.spec
-    msgs = sorted(chosen.messages.values(), key=lambda m: (m.services[:1], m.code))
-    w = Writer()
-    for m in msgs:
-        for fld in m.body.fields:
-            w.count(fld.type)
+def _entries(w: Writer, msgs: list[MessageDef], indent: str = "    ") -> list[str]:
     entries = []
     for m in msgs:
         svc = " ".join(m.services[0]) if m.services else "declared by no service"
@@ -583,11 +643,36 @@ def write_module(chosen: Chosen, sources: str) -> str:
         args.append(f"services=({services})")
         if m.doc:
             args.append(f"doc={ascii_text(m.doc)!r}")
-        entries.append(f"    # {svc}\n    message({', '.join(args)}),\n")
+        entries.append(f"{indent}# {svc}\n{indent}message({', '.join(args)}),\n")
+    return entries
+
+
+def write_module(chosen: Chosen, sources: str) -> str:
+    spec = chosen.spec
+    msgs = sorted(chosen.messages.values(), key=lambda m: (m.services[:1], m.code))
+    variants = {name: sorted(defs.values(), key=lambda m: m.code)
+                for name, defs in sorted(chosen.variants.items()) if defs}
+    w = Writer()
+    for m in [*msgs, *(v for defs in variants.values() for v in defs)]:
+        for fld in m.body.fields:
+            w.count(fld.type)
+    entries = _entries(w, msgs)
+    dialect_text = ""
+    for name, defs in variants.items():
+        d = chosen.dialects[name]
+        aliases = "".join(f"({n!r}, 0x{c:04X}), "
+                          for n, c in sorted(chosen.aliases.get(name, {}).items()))
+        recognise = "".join(f"({u!r}, {v!r}), " for u, v in d.recognise)
+        dialect_text += (f"    Dialect(\n        {name!r},\n        messages=(\n"
+                         + "".join(_entries(w, defs, " " * 12))
+                         + f"        ),\n        aliases=({aliases}),\n"
+                         f"        recognise=({recognise}),\n        doc={d.doc!r},\n    ),\n")
+    if dialect_text:
+        w.used.add("Dialect")
     w.used.add("message")
     w.used.add("MessageDef")
     defs = "".join(f"{name} = {text}\n" for name, text in w.defs)
-    body_text = defs + "".join(entries)
+    body_text = defs + "".join(entries) + dialect_text
     pi = "\nimport math\n" if uses_pi(body_text) else ""
     imports = ", ".join(sorted(w.used, key=lambda s: (s[0].islower(), s)))
     doc = module_doc(chosen, sources, len(msgs))
@@ -599,6 +684,9 @@ def write_module(chosen: Chosen, sources: str) -> str:
     out.append("\n# Types used by several messages\n" if defs else "\n")
     out.append(defs)
     out.append(f"\nMESSAGES: tuple[MessageDef, ...] = (\n{''.join(entries)})\n")
+    if dialect_text:
+        out.append("\n# Other definitions of codes above, for vehicles that speak them\n"
+                   f"DIALECTS: tuple[Dialect, ...] = (\n{dialect_text})\n")
     return "".join(out)
 
 
@@ -651,15 +739,19 @@ def write_init(chosen: list[Chosen], left: list[LeftOut], defects: list[tuple[st
         f"run time. {total} messages in all: "
         + ", ".join(f"{c.spec.module} {len(c.messages)}" for c in chosen) + ".",
         "",
-        "A catalogue is keyed by message code, so the definitions of another version that",
-        "reuse a code with a different layout are left out. Load the JSIDL of that version",
-        "(``edge_vis.catalogue.jsidl.load_jsidl``) to talk to a peer that uses one of them.",
+        "A catalogue is keyed by message code. Where another published reading defines a",
+        "code differently (manipulator v1.0, the IOP readings of mobility and UGV messages),",
+        "its definitions are kept as a *dialect* (``DIALECTS`` of the set's module): a",
+        "vehicle that speaks it (its profile's ``dialects``, or the services it reports)",
+        "has those codes decoded and encoded with the dialect's definitions. Other",
+        "definitions that reuse a code are left out (listed below); load the JSIDL of that",
+        "version (``edge_vis.catalogue.jsidl.load_jsidl``) to talk to a peer that uses one.",
         "",
         "Versions kept: core 1.1 (every core 1.0 message has the same layout and lists the",
         "1.0 services too), mobility 1.0, environmentSensing 1.0, manipulator 2.0, ugv 1.0, the",
         "IOP services as published by FKIE, HMI 1.0 and the mission spooler. Manipulator 1.0",
-        "has no code of its own: its messages either match 2.0 under a plural name (their",
-        "services are listed on the 2.0 definition) or are listed below. Mobility 1.1 and",
+        "has no code of its own: its messages match 2.0 under a plural name (their services",
+        "are listed on the 2.0 definition too) or differ (its dialect). Mobility 1.1 and",
         "environmentSensing 2.0 are not in the public JSIDL these modules come from.",
         "",
         "Representation choices: a JSIDL ``array`` (fixed dimensions, no count on the wire)",

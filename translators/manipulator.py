@@ -7,6 +7,11 @@ JAUS -> DDS:
   which, ``units`` per joint because a joint is revolute (rad) or prismatic (m));
 * ReportPanTilt{,Commanded}Joint{Positions,Velocity}, ReportPanTiltJointEffort ->
   ``JointState`` (device ``pan_tilt``);
+* ReportManipulatorSpecifications, ReportPanTiltSpecifications,
+  ReportEndEffectorSpecification -> ``JointSpecification`` (joint names, types, limits:
+  what an operator labels the joints of ``JointState`` with);
+* ReportJointMotionProfile, ReportPanTiltMotionProfile -> ``JointState`` (quantity
+  ``max_speed``, ``max_acceleration``, ``max_deceleration``);
 * Report{,Commanded}EndEffectorPose, ReportToolOffset -> ``EndEffectorPose``;
   Report{,Commanded}EndEffectorVelocityState -> ``EndEffectorVelocity``;
   ReportEndEffectorEffort -> ``JointState`` (device ``end_effector``).
@@ -19,19 +24,30 @@ DDS -> JAUS (behind control, throttled by the engine):
   velocity and effort are motion commands (dead-man stop = zero);
 * ``EndEffectorCommand`` -> SetEndEffectorPose / SetEndEffectorVelocityState /
   SetEndEffectorEffort by ``mode``;
+* ``JointCommand`` with quantity ``motion_profile`` -> SetJointMotionProfile /
+  SetPanTiltMotionProfile (``values``: speed, acceleration, deceleration per joint);
+  ``EndEffectorCommand`` mode ``tool_offset`` -> SetToolOffset;
 * ``JointCommand`` with quantity ``execute_list`` -> ExecuteList (the manipulator's, code
   0x061E, not mobility's of the same name) to the joint-positions list driver, starting
   at element ``values[0]``.
+
+Manipulator v1.0 and v2.0 both: the engine matches v1.0 services to the v2.0 ones that
+took over their messages and decodes a v1.0 vehicle's messages with the v1.0 definitions
+(dialect ``manipulator-1.0``), under the v2.0 names; the v1.0 motion profile's field names
+are read and written here.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any
 
 from edge_vis.kit import (
+    Action,
     Build,
+    Command,
     Computed,
     Const,
     Each,
@@ -40,6 +56,7 @@ from edge_vis.kit import (
     PutEach,
     ReportRule,
     RuleTranslator,
+    TranslatorContext,
 )
 from edge_vis.kit import CommandRule as Cmd
 
@@ -169,6 +186,114 @@ def _element_uid(sample: Mapping[str, Any]) -> int:
     return int(value)
 
 
+V1 = "manipulator-1.0"
+#: v2.0 field name -> the v1.0 one, where v1.0 named the same field otherwise
+_V1_NAMES = {"joint_motion_profile_list": "motion_profile_list",
+             "revolute_joint_motion_profile_rec": "revolute_motion_profile_rec",
+             "prismatic_joint_motion_profile_rec": "prismatic_motion_profile_rec"}
+_V2_NAMES = {v1: v2 for v2, v1 in _V1_NAMES.items()}
+
+
+def _renamed(value: Any, names: Mapping[str, str]) -> Any:
+    """``value`` with its field names renamed by ``names``, at every depth."""
+    if isinstance(value, Mapping):
+        return {names.get(k, k): _renamed(v, names) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_renamed(v, names) for v in value]
+    return value
+
+
+def _profiles(fields: Mapping[str, Any]) -> list[tuple[str, Mapping[str, Any]]]:
+    """(alternative, record) per joint of a joint motion profile, v1.0 or v2.0 names."""
+    items = fields.get("joint_motion_profile_list", fields.get("motion_profile_list")) or ()
+    out = []
+    for item in items:
+        if isinstance(item, Mapping) and item:
+            name, rec = next(iter(item.items()))
+            out.append((_V2_NAMES.get(name, name), rec))
+    return out
+
+
+def _profile_values(member: str) -> Computed:
+    return Computed(lambda f: [float(rec.get(member, math.nan)) for _a, rec in _profiles(f)],
+                    f"joint_motion_profile_list[] (v1.0: motion_profile_list[]).*.{member}")
+
+
+def _profile_units(suffix: str) -> Computed:
+    return Computed(lambda f: [("m" if alt.startswith("prismatic") else "rad") + suffix
+                               for alt, _rec in _profiles(f)],
+                    "rad or m by the joint type")
+
+
+def _pan_tilt_profile(member: str) -> Computed:
+    return _pair(f"joint1_{member}", f"joint2_{member}")
+
+
+def _joint_specs(fields: Mapping[str, Any]) -> dict[str, list[Any]]:
+    """Names, types and limits per joint of a ReportManipulatorSpecifications: joint 1 from
+    ``first_joint_parameters``, the others from ``joint_specification_list``, names from
+    ``joint_names_list`` (v2.0; v1.0 has none)."""
+    joints: list[tuple[str, Mapping[str, Any], str, str, str]] = []
+    first = fields.get("first_joint_parameters") or {}
+    for alt, rec in first.items():
+        kind = "prismatic" if alt.startswith("prismatic") else "revolute"
+        joints.append((kind, rec, "joint1_min_value", "joint1_max_value", "joint1_max_speed"))
+    for item in fields.get("joint_specification_list") or ():
+        for alt, rec in item.items():
+            kind = "prismatic" if alt.startswith("prismatic") else "revolute"
+            joints.append((kind, rec, "min_value", "max_value", "max_speed"))
+    names = [str(n.get("description", "")) if isinstance(n, Mapping) else str(n)
+             for n in fields.get("joint_names_list") or ()]
+    return {
+        "names": [names[i] if i < len(names) else "" for i in range(len(joints))],
+        "types": [kind for kind, *_rest in joints],
+        "min_values": [float(rec.get(lo, math.nan)) for _k, rec, lo, _h, _s in joints],
+        "max_values": [float(rec.get(hi, math.nan)) for _k, rec, _l, hi, _s in joints],
+        "max_speeds": [float(rec.get(sp, math.nan)) for _k, rec, _l, _h, sp in joints],
+        "units": ["m" if kind == "prismatic" else "rad" for kind, *_rest in joints],
+    }
+
+
+def _spec(member: str) -> Computed:
+    return Computed(lambda f: _joint_specs(f)[member],
+                    "first_joint_parameters, joint_specification_list[]"
+                    + (", joint_names_list[].description" if member == "names" else ""))
+
+
+def _profile_list(sample: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """SetJointMotionProfile's list from ``values`` (speed, acceleration, deceleration per
+    joint; ``units[i]`` m or m/s makes joint i prismatic)."""
+    values = [float(v) for v in sample.get("values") or ()]
+    units = list(sample.get("units") or ())
+    if not values or len(values) % 3 or any(math.isnan(v) or v < 0 for v in values):
+        raise ValueError(f"motion profile: {len(values)} values; 3 per joint, none negative")
+    out = []
+    for i in range(0, len(values), 3):
+        prismatic = i // 3 < len(units) and str(units[i // 3]).strip().lower().startswith("m")
+        speed, acc = (5.0, 20.0) if prismatic else (10 * math.pi, 10 * math.pi)
+        alt = "prismatic_joint_motion_profile_rec" if prismatic \
+            else "revolute_joint_motion_profile_rec"
+        out.append({alt: {"joint_max_speed": min(values[i], speed),
+                          "joint_max_acceleration_rate": min(values[i + 1], acc),
+                          "joint_max_deceleration_rate": min(values[i + 2], acc)}})
+    return out
+
+
+def _pan_tilt_profile_value(index: int, limit: float) -> Build:
+    def get(sample: Mapping[str, Any]) -> float:
+        values = list(sample.get("values") or ())
+        if len(values) != 6:
+            raise ValueError(f"pan-tilt motion profile: {len(values)} values, 6 expected")
+        return max(0.0, min(float(values[index]), limit))
+
+    return Build(f"values[{index}]", get, f"clamped to [0, {limit:g}]")
+
+
+_PT_PROFILE = ("joint1_max_speed", "joint1_max_acceleration_rate",
+               "joint1_max_deceleration_rate", "joint2_max_speed",
+               "joint2_max_acceleration_rate", "joint2_max_deceleration_rate")
+
+
 class ManipulatorTranslator(RuleTranslator):
     """Manipulator service set <-> JointState, EndEffector* topics and their commands."""
 
@@ -228,6 +353,44 @@ class ManipulatorTranslator(RuleTranslator):
                    {"kind": Const("commanded"), **_TWIST},
                    query="QueryCommandedEndEffectorVelocityState",
                    service=MANIP + "ManipulatorEndEffectorVelocityStateDriver"),
+        ReportRule("ReportManipulatorSpecifications", "JointSpecification",
+                   {"device": Const("manipulator"), **{m: _spec(m) for m in (
+                       "names", "types", "min_values", "max_values", "max_speeds", "units")}},
+                   query="QueryManipulatorSpecifications", query_fields={"presence_vector": 0xFF},
+                   service=MANIP + "ManipulatorSpecificationService", rate=0.2, on_change=True,
+                   doc="v1.0 reports no joint names: names are empty"),
+        ReportRule("ReportPanTiltSpecifications", "JointSpecification",
+                   {"device": Const("pan_tilt"), "names": Const(["pan", "tilt"]),
+                    "types": Const(["revolute", "revolute"]),
+                    "min_values": _pair("joint1_min_value", "joint2_min_value"),
+                    "max_values": _pair("joint1_max_value", "joint2_max_value"),
+                    "max_speeds": _pair("joint1_max_speed", "joint2_max_speed"),
+                    "units": Const(["rad", "rad"])},
+                   query="QueryPanTiltSpecifications", query_fields={"presence_vector": 0xFF},
+                   service=MANIP + "PanTiltSpecificationService", rate=0.2, on_change=True),
+        ReportRule("ReportEndEffectorSpecification", "JointSpecification",
+                   {"device": Const("end_effector"), "names": Const(["effort"]),
+                    "types": Const(["end_effector"]), "parent_id": From("parent_id", default=-1)},
+                   query="QueryEndEffectorSpecification",
+                   service=MANIP + "PrimitiveEndEffector", rate=0.2, on_change=True),
+        *(ReportRule("ReportJointMotionProfile", "JointState",
+                     {"device": Const("manipulator"), "quantity": Const(quantity),
+                      "values": _profile_values(member), "units": _profile_units(suffix)},
+                     query="QueryJointMotionProfile",
+                     service=MANIP + "ManipulatorJointMotionProfile", rate=0.2, on_change=True)
+          for quantity, member, suffix in (
+              ("max_speed", "joint_max_speed", "/s"),
+              ("max_acceleration", "joint_max_acceleration_rate", "/s^2"),
+              ("max_deceleration", "joint_max_deceleration_rate", "/s^2"))),
+        *(ReportRule("ReportPanTiltMotionProfile", "JointState",
+                     {"device": Const("pan_tilt"), "quantity": Const(quantity),
+                      "values": _pan_tilt_profile(member), "units": Const([unit, unit])},
+                     query="QueryPanTiltMotionProfile",
+                     service=MANIP + "PanTiltMotionProfileService", rate=0.2, on_change=True)
+          for quantity, member, unit in (
+              ("max_speed", "max_speed", "rad/s"),
+              ("max_acceleration", "max_acceleration_rate", "rad/s^2"),
+              ("max_deceleration", "max_deceleration_rate", "rad/s^2"))),
     )
     command_rules = (
         Cmd("JointCommand", "SetJointPositions", MANIP + "ManipulatorJointPositionDriver",
@@ -291,7 +454,7 @@ class ManipulatorTranslator(RuleTranslator):
                                 "linear_velocity_component_z", "angular_velocity_component_x",
                                 "angular_velocity_component_y", "angular_velocity_component_z"),
                                0.0), doc="motion: dead-man stop"),
-        Cmd("JointCommand", "ExecuteList", MANIP + "ManipulatorJointPositionsListDriver",
+        Cmd("JointCommand", "ExecuteList", MANIP + "ManipulatorListDriver",
             "joint_list", {"element_uid": Build("values", _element_uid,
                                                 "values[0]: the list element to start at")},
             when={"device": ("manipulator", ""), "quantity": "execute_list"},
@@ -300,16 +463,35 @@ class ManipulatorTranslator(RuleTranslator):
         Cmd("EndEffectorCommand", "SetEndEffectorEffort", MANIP + "PrimitiveEndEffector",
             "end_effector_effort", {"end_effector_effort": Put("effort", -100.0, 100.0)},
             when={"mode": "effort"}),
+        Cmd("JointCommand", "SetJointMotionProfile", MANIP + "ManipulatorJointMotionProfile",
+            "joint_motion_profile",
+            {"joint_motion_profile_list": Build(
+                "values, units", _profile_list,
+                "speed, acceleration, deceleration per joint (rad or m by units[i])")},
+            when={"device": ("manipulator", ""), "quantity": "motion_profile"},
+            doc="v1.0: SetMotionProfile, motion_profile_list"),
+        Cmd("JointCommand", "SetPanTiltMotionProfile", MANIP + "PanTiltMotionProfileService",
+            "pan_tilt_motion_profile",
+            {name: _pan_tilt_profile_value(i, 10 * math.pi) for i, name in enumerate(_PT_PROFILE)},
+            when={"device": "pan_tilt", "quantity": "motion_profile"}),
+        Cmd("EndEffectorCommand", "SetToolOffset", MANIP + "ManipulatorToolOffsetService",
+            "tool_offset",
+            {"tool_point_coordinate_x": Put("x", -15.0, 15.0),
+             "tool_point_coordinate_y": Put("y", -15.0, 15.0),
+             "tool_point_coordinate_z": Put("z", -15.0, 15.0)},
+            when={"mode": "tool_offset"}),
     )
-    not_translated = (
-        ("ReportManipulatorSpecifications", "kinematic description; no topic in the model"),
-        ("ReportPanTiltSpecifications", "pan-tilt limits; no topic in the model"),
-        ("ReportJointMotionProfile", "motion profiles are not exposed over DDS"),
-        ("ReportPanTiltMotionProfile", "motion profiles are not exposed over DDS"),
-        ("ReportEndEffectorSpecification", "end-effector parent link; no topic in the model"),
-        ("SetToolOffset", "tool offset is set on the vehicle, not from DDS"),
-        ("SetJointMotionProfile", "motion profiles are not exposed over DDS"),
-    )
+    not_translated = ()
+
+    def on_sample(self, topic: str, sample: Mapping[str, Any],
+                  ctx: TranslatorContext) -> list[Action]:
+        """A v1.0 manipulator gets the v1.0 field names where v1.0 named them otherwise."""
+        actions = super().on_sample(topic, sample, ctx)
+        if ctx.vehicle is None or V1 not in ctx.vehicle.dialects:
+            return actions
+        return [replace(a, fields=_renamed(a.fields, _V1_NAMES))
+                if isinstance(a, Command) and a.name == "SetJointMotionProfile" else a
+                for a in actions]
 
     def command(self, rule, sample):  # type: ignore[no-untyped-def]
         """Pan-tilt rules read ``values[0]``/``values[1]``: expose them as members first."""

@@ -166,6 +166,13 @@ NOT_TRANSLATED: tuple[tuple[str, str], ...] = (
 )
 
 
+def _actual_position(element: Mapping[str, Any]) -> float:
+    """A stabilizer's position: SAE reports ``actual_position`` (and the commanded one),
+    the IOP reading one ``position``."""
+    value = element.get("actual_position", element.get("position"))
+    return NAN if value is None else float(value)
+
+
 class UgvTranslator(RuleTranslator):
     """UGV service set <-> odometry, platform, power plant and device topics."""
 
@@ -230,8 +237,9 @@ class UgvTranslator(RuleTranslator):
         ReportRule("ReportStabilizerPosition", "DeviceStatus",
                    {"device": Computed(lambda e: f"stabilizer_{e.get('stabilizer_id', 0)}",
                                        "stabilizer_<stabilizer_id>"),
-                    "value": From("actual_position", note="rad"),
-                    "commanded_value": From("commanded_position", note="rad")},
+                    "value": Computed(_actual_position,
+                                      "actual_position (IOP: position), rad"),
+                    "commanded_value": From("commanded_position", note="rad; IOP: NaN")},
                    query="QueryStabilizerPosition", service=UGV + "StabilizerDriver",
                    query_fields={"stabilizer_id": []}, rate=1.0, split="stabilizer_position",
                    doc="one sample per stabilizer (flipper); an empty id list asks for all"),

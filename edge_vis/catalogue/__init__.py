@@ -18,6 +18,14 @@ Names are not unique across sets — ``ExecuteList`` is 0x041E in mobility and 0
 manipulator — so :meth:`Catalogue.by_name` returns the first one added unless a set is
 named.
 
+*Dialects* (:class:`~edge_vis.codec.types.Dialect`, a message set's ``DIALECTS``) are the
+other published definitions of codes the catalogue holds: manipulator v1.0 beside v2.0,
+the IOP readings of a few SAE messages. :meth:`Catalogue.decode` and
+:meth:`Catalogue.encode` take the dialects a vehicle speaks (:meth:`Catalogue.recognise`
+finds them from its services); a decoded message keeps the base definition's ``name``
+(what translators and the engine know it by) and carries the dialect's ``definition``
+and ``dialect``. A dialect's names are known to ``in`` and :meth:`Catalogue.by_name`.
+
 Events (AS5710 ``Event``, 0x41F1) carry a complete report payload in a ``JausMessage``
 field; :meth:`Catalogue.unwrap_event` and :meth:`Catalogue.wrap_event` find that field and
 the event-id / sequence-number integers from the catalogue's own ``Event`` definition, by
@@ -38,7 +46,7 @@ from typing import Any
 from edge_vis import plugins
 from edge_vis.codec.bodies import MessageCodec, compile_message
 from edge_vis.codec.layout import check_message, wire_signature
-from edge_vis.codec.types import Enum, Int, JausMessage, MessageDef, Record
+from edge_vis.codec.types import Dialect, Enum, Int, JausMessage, MessageDef, Record
 from edge_vis.errors import (
     DecodeError,
     EncodeError,
@@ -78,6 +86,8 @@ class Message:
     fields: dict[str, Any] | None
     body: bytes
     definition: MessageDef | None = None
+    #: the dialect whose definition decoded it ("" for the base definition)
+    dialect: str = ""
 
     @property
     def payload(self) -> bytes:
@@ -108,6 +118,11 @@ class Catalogue:
         self._names: dict[str, list[MessageDef]] = {}
         self._codecs: dict[int, MessageCodec] = {}
         self._event: _EventLayout | None = None
+        #: dialect name -> code -> definition; the dialects' recognising services; names
+        self._dialects: dict[str, dict[int, MessageDef]] = {}
+        self._recognise: dict[str, tuple[tuple[str, str], ...]] = {}
+        self._dialect_names: dict[str, tuple[str, int]] = {}
+        self._dialect_codecs: dict[tuple[str, int], MessageCodec] = {}
         if defs:
             self.add(defs, source=source)
 
@@ -166,6 +181,76 @@ class Catalogue:
             self._names.setdefault(defn.name, []).append(defn)
         self._event = None
 
+    def add_dialect(self, dialect: Dialect, *, source: str = "") -> None:
+        """Add (or extend) a dialect; all or none.
+
+        Every code it defines must be in the catalogue already (a dialect is another
+        definition of a known code); a broken definition raises PluginLoadError, a code the
+        dialect already defines differently PluginConflictError.
+        """
+        where = f" from {source}" if source else ""
+        if not dialect.name:
+            raise PluginLoadError(f"dialect{where} has no name")
+        known = self._dialects.get(dialect.name, {})
+        incoming: dict[int, MessageDef] = {}
+        for defn in dialect.messages:
+            problems = check_message(defn)
+            if problems:
+                raise PluginLoadError(f"dialect {dialect.name} message {defn.name} "
+                                      f"(0x{defn.code:04X}){where}: " + "; ".join(problems))
+            if defn.code not in self._defs:
+                raise PluginLoadError(f"dialect {dialect.name}{where}: 0x{defn.code:04X} "
+                                      f"{defn.name} is not a code of the catalogue")
+            earlier = known.get(defn.code) or incoming.get(defn.code)
+            if earlier is not None and not _same(earlier, defn):
+                raise PluginConflictError(
+                    f"dialect {dialect.name}, message code 0x{defn.code:04X}: "
+                    f"{_who(defn, source)} conflicts with {_who(earlier, '')}")
+            incoming[defn.code] = defn
+        for name, code in dialect.aliases:
+            if code not in self._defs:
+                raise PluginLoadError(f"dialect {dialect.name}{where}: alias {name} names "
+                                      f"0x{code:04X}, not a code of the catalogue")
+        self._dialects.setdefault(dialect.name, {}).update(incoming)
+        recognise = dict.fromkeys((*self._recognise.get(dialect.name, ()), *dialect.recognise))
+        self._recognise[dialect.name] = tuple(recognise)
+        for defn in incoming.values():
+            if defn.name not in self._names:
+                self._dialect_names.setdefault(defn.name, (dialect.name, defn.code))
+        for name, code in dialect.aliases:
+            if name not in self._names:
+                self._dialect_names.setdefault(name, (dialect.name, code))
+
+    def dialects(self) -> dict[str, tuple[MessageDef, ...]]:
+        """Dialect name -> its definitions, in code order."""
+        return {name: tuple(defs[c] for c in sorted(defs))
+                for name, defs in self._dialects.items()}
+
+    def recognise(self, services: Iterable[tuple[str, str]]) -> tuple[str, ...]:
+        """The dialects a vehicle offering ``services`` (``(uri, version)``) speaks: those
+        with a recognising ``(URI prefix, version prefix)`` that one of them matches."""
+        pairs = tuple(services)
+        return tuple(name for name, patterns in self._recognise.items()
+                     if any(uri.startswith(prefix) and str(version).startswith(ver)
+                            for prefix, ver in patterns for uri, version in pairs))
+
+    def definition(self, code: int, dialects: Iterable[str] = ()) -> MessageDef | None:
+        """The definition of ``code`` a speaker of ``dialects`` uses (the base one unless a
+        dialect defines the code; the first listed wins)."""
+        for dialect in dialects:
+            defn = self._dialects.get(dialect, {}).get(code)
+            if defn is not None:
+                return defn
+        return self._defs.get(code)
+
+    def canonical(self, name: str) -> str:
+        """The base name of a message named ``name`` in a dialect (``name`` itself when it
+        is a base name or unknown)."""
+        found = self._dialect_names.get(name)
+        if found is None:
+            return name
+        return self._defs[found[1]].name
+
     def copy(self) -> Catalogue:
         """An independent catalogue with the same definitions (compiled codecs shared)."""
         other = Catalogue()
@@ -173,6 +258,10 @@ class Catalogue:
         other._sources = dict(self._sources)
         other._names = {name: list(defs) for name, defs in self._names.items()}
         other._codecs = dict(self._codecs)
+        other._dialects = {name: dict(defs) for name, defs in self._dialects.items()}
+        other._recognise = dict(self._recognise)
+        other._dialect_names = dict(self._dialect_names)
+        other._dialect_codecs = dict(self._dialect_codecs)
         return other
 
     # -- looking up ----------------------------------------------------------------------
@@ -187,6 +276,12 @@ class Catalogue:
         Raises KeyError when there is none.
         """
         for defn in self._names.get(name, ()):
+            if service_set is None or defn.service_set == service_set:
+                return defn
+        found = self._dialect_names.get(name)
+        if found is not None:
+            dialect, code = found
+            defn = self._dialects[dialect].get(code) or self._defs[code]
             if service_set is None or defn.service_set == service_set:
                 return defn
         in_set = f" in set {service_set!r}" if service_set else ""
@@ -212,7 +307,7 @@ class Catalogue:
     def __contains__(self, key: object) -> bool:
         if isinstance(key, int):
             return key in self._defs
-        return key in self._names
+        return key in self._names or key in self._dialect_names
 
     def __repr__(self) -> str:
         sets = ", ".join(f"{name} {n}" for name, n in self.sets().items())
@@ -227,12 +322,25 @@ class Catalogue:
             codec = self._codecs[code] = compile_message(self._defs[code])
         return codec
 
-    def decode(self, payload: bytes) -> Message:
-        """Decode a payload (2-byte code + body).
+    def _dialect_codec(self, code: int, dialects: Iterable[str]) -> tuple[str, MessageCodec]:
+        """(dialect, codec) of the first of ``dialects`` defining ``code``; KeyError when
+        none does."""
+        for dialect in dialects:
+            defn = self._dialects.get(dialect, {}).get(code)
+            if defn is not None:
+                key = (dialect, code)
+                codec = self._dialect_codecs.get(key)
+                if codec is None:
+                    codec = self._dialect_codecs[key] = compile_message(defn)
+                return dialect, codec
+        raise KeyError(code)
+
+    def decode(self, payload: bytes, dialects: Iterable[str] = ()) -> Message:
+        """Decode a payload (2-byte code + body), as a speaker of ``dialects`` sends it.
 
         An unknown code gives a Message with ``name``/``fields``/``definition`` None.
         Raises DecodeError for a payload shorter than 2 bytes or a body that does not
-        match its known definition.
+        match its known definition. A code a dialect defines keeps the base ``name``.
         """
         if len(payload) < 2:
             raise DecodeError(
@@ -240,6 +348,14 @@ class Catalogue:
             )
         code = payload[0] | payload[1] << 8
         body = bytes(payload[2:])
+        if dialects and self._dialects:
+            try:
+                dialect, variant = self._dialect_codec(code, dialects)
+            except KeyError:
+                pass
+            else:
+                return Message(code, self._defs[code].name, variant.decode(body), body,
+                               variant.definition, dialect)
         codec = self._codecs.get(code)
         if codec is None:
             if code not in self._defs:
@@ -248,13 +364,27 @@ class Catalogue:
         defn = codec.definition
         return Message(code, defn.name, codec.decode(body), body, defn)
 
-    def encode(self, name_or_code: str | int, fields: Mapping[str, Any]) -> bytes:
-        """Encode ``fields`` as the named (or numbered) message; returns the payload.
+    def encode(self, name_or_code: str | int, fields: Mapping[str, Any],
+               dialects: Iterable[str] = ()) -> bytes:
+        """Encode ``fields`` as the named (or numbered) message, as a speaker of
+        ``dialects`` reads it (a dialect's own name picks that dialect); returns the
+        payload.
 
         Raises EncodeError for an unknown message or a value the definition cannot carry.
         """
+        if isinstance(name_or_code, str) and name_or_code not in self._names and \
+                name_or_code in self._dialect_names:
+            dialects = (self._dialect_names[name_or_code][0], *dialects)
         defn = self._resolve(name_or_code)
-        return defn.code.to_bytes(2, "little") + self.codec(defn.code).encode(fields)
+        prefix = defn.code.to_bytes(2, "little")
+        if dialects and self._dialects:
+            try:
+                _dialect, variant = self._dialect_codec(defn.code, dialects)
+            except KeyError:
+                pass
+            else:
+                return prefix + variant.encode(fields)
+        return prefix + self.codec(defn.code).encode(fields)
 
     def _resolve(self, name_or_code: str | int) -> MessageDef:
         if isinstance(name_or_code, int):
@@ -262,6 +392,9 @@ class Catalogue:
             if defn is None:
                 raise EncodeError(f"no message 0x{name_or_code:04X} in the catalogue")
             return defn
+        found = self._dialect_names.get(name_or_code)
+        if found is not None and name_or_code not in self._names:
+            return self._defs[found[1]]
         try:
             return self.by_name(name_or_code)
         except KeyError:
@@ -279,7 +412,7 @@ class Catalogue:
             layout = self._event = _find_event_layout(defn)
         return layout
 
-    def unwrap_event(self, message: Message) -> Message:
+    def unwrap_event(self, message: Message, dialects: Iterable[str] = ()) -> Message:
         """The report carried inside an Event message, decoded by this catalogue.
 
         ``message`` may be decoded or raw (fields None). An unknown report code gives a
@@ -295,7 +428,7 @@ class Catalogue:
             fields = self.codec(defn.code).decode(message.body)
         report = _get_path(fields, layout.report)
         try:
-            return self.decode(report)
+            return self.decode(report, dialects)
         except DecodeError as exc:
             raise DecodeError(
                 f"{exc.reason} (report inside {EVENT})",
@@ -431,6 +564,8 @@ def default_catalogue() -> Catalogue:
         if defs is None:
             raise PluginLoadError(f"message set {module_name} has no MESSAGES")
         cat.add(defs, source=module_name)
+        for dialect in getattr(module, "DIALECTS", ()):
+            cat.add_dialect(dialect, source=module_name)
     from edge_vis.catalogue.jsidl import load_jsidl
 
     for set_name, folder in shipped_jsidl_sets().items():

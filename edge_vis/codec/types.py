@@ -258,6 +258,26 @@ class MessageDef:
     doc: str = ""
 
 
+@dataclass(frozen=True, slots=True)
+class Dialect:
+    """Another published definition of messages whose codes the base catalogue already
+    defines: manipulator v1.0 beside v2.0, the IOP readings of some SAE messages.
+
+    ``messages`` replace the base definitions of their codes for a vehicle that speaks the
+    dialect (same code, the dialect's own name and layout); ``aliases`` are further names
+    the dialect's readings give to a code (``ReportJointPosition`` for 0x4602).
+    ``recognise`` lists ``(URI prefix, version prefix)`` pairs: a vehicle reporting a
+    service that matches one of them speaks the dialect. Definitions from several message
+    sets that share a dialect name are one dialect.
+    """
+
+    name: str
+    messages: tuple[MessageDef, ...] = ()
+    aliases: tuple[tuple[str, int], ...] = ()
+    recognise: tuple[tuple[str, str], ...] = ()
+    doc: str = ""
+
+
 _CAMEL_1 = re.compile(r"(.)([A-Z][a-z]+)")
 _CAMEL_2 = re.compile(r"([a-z0-9])([A-Z])")
 

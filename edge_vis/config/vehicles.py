@@ -71,6 +71,15 @@ class ComponentProfile:
     services: tuple[ServiceProfile, ...] = ()
 
 
+def _dialect(name: str) -> str | None:
+    from edge_vis.catalogue import default_catalogue
+
+    known = default_catalogue().dialects()
+    if name in known:
+        return None
+    return f"no dialect {name!r} (dialects: {', '.join(sorted(known)) or 'none'})"
+
+
 def _hello_field(path: str) -> str | None:
     return None if all(path.split(".")) else f"{path!r}: a dotted field path of the hello"
 
@@ -131,6 +140,7 @@ class VehicleProfile:
     ``report_rates`` (Hz, by report message name) override the deployment's rates.
     ``discovery`` says how a vehicle without JAUS Discovery is found; with it and no
     ``subsystem`` the profile is a family and ``vehicle_id`` comes from each vehicle.
+    ``dialects`` names the message dialects it speaks when its services do not tell.
     """
 
     vehicle_id: str = ""
@@ -141,6 +151,11 @@ class VehicleProfile:
     components: tuple[ComponentProfile, ...] = ()
     report_rates: Mapping[str, float] = setting(factory=dict, custom=True)
     discovery: VehicleDiscovery | None = None
+    #: the message dialects it speaks (``manipulator-1.0``, ``iop``); None: recognised
+    #: from the services it reports; [] : the base definitions only
+    dialects: tuple[str, ...] | None = setting(
+        None, check=_dialect, doc="message dialects it speaks (default: recognised from "
+                                  "its services)")
     source: str = setting("", toml=False)
     #: minimum useful rate (Hz) and planning priority (higher = kept longer) by report
     report_minimums: Mapping[str, float] = setting(factory=dict, key="report_rates",

@@ -635,6 +635,27 @@ class JointState(IdlStruct, typename="edge_vis::JointState"):
 
 
 @dataclass
+class JointSpecification(IdlStruct, typename="edge_vis::JointSpecification"):
+    """What the joints of ``device`` (manipulator, pan_tilt, end_effector) are, as the
+    vehicle reports them: joint i of ``JointState.values`` is ``names[i]``, ``types[i]``
+    revolute or prismatic, limits in ``units[i]`` (rad or m; speeds per second; NaN: not
+    reported). ``parent_id`` is an end effector's parent link."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    device: str
+    key("device")
+    names: sequence[str] = field(default_factory=list)
+    types: sequence[str] = field(default_factory=list)
+    min_values: sequence[float64] = field(default_factory=list)
+    max_values: sequence[float64] = field(default_factory=list)
+    max_speeds: sequence[float64] = field(default_factory=list)
+    units: sequence[str] = field(default_factory=list)
+    parent_id: int64 = -1
+    timestamp_ms: int64 = 0
+
+
+@dataclass
 class EndEffectorPose(IdlStruct, typename="edge_vis::EndEffectorPose"):
     """Tool point position (m) and orientation (unit quaternion) in the manipulator frame;
     ``kind`` is actual, commanded or tool_offset."""
@@ -1051,6 +1072,7 @@ STRUCTS: tuple[type[IdlStruct], ...] = (
     EnvironmentalData,
     AccelerationState,
     JointState,
+    JointSpecification,
     EndEffectorPose,
     EndEffectorVelocity,
     Odometry,

@@ -98,6 +98,7 @@ _STANDARD_KINDS: dict[type[IdlStruct], TopicKind] = {
     model.EnvironmentalData: TopicKind.TELEMETRY,
     model.AccelerationState: TopicKind.TELEMETRY,
     model.JointState: TopicKind.TELEMETRY,
+    model.JointSpecification: TopicKind.STATE,
     model.EndEffectorPose: TopicKind.TELEMETRY,
     model.EndEffectorVelocity: TopicKind.TELEMETRY,
     model.Odometry: TopicKind.TELEMETRY,

@@ -69,9 +69,49 @@ SERVICE_PARENTS: Mapping[str, str] = {
     ENV + "DigitalVideo": ENV + "VisualSensor",
     ENV + "AnalogVideo": ENV + "VisualSensor",
     ENV + "RangeSensor": CORE + "AccessControl",
+    "urn:jaus:jss:manipulator:ManipulatorListDriver": CORE + "ListManager",
+    "urn:jaus:jss:manipulator:ManipulatorJointPositionListDriver":
+        "urn:jaus:jss:manipulator:ManipulatorListDriver",
+    "urn:jaus:jss:manipulator:ListManager": CORE + "Management",
+    "urn:jaus:jss:manipulator:ManipulatorJointPositionsListDriver":
+        "urn:jaus:jss:manipulator:ListManager",
     # IOP (jsidl-iop): answers QueryControl/QueryAuthority like its parent
     "urn:jaus:jss:iop:EnhancedAccessControl": CORE + "AccessControl",
 }
+
+MANIPULATOR = "urn:jaus:jss:manipulator:"
+#: service URI -> the v1.x services that carry its messages: a component offering one of
+#: them at a 1.x version is taken to offer it (at that version). Manipulator
+#: v2.0 renamed the v1.0 velocity and list drivers and moved specifications, motion
+#: profiles and the tool offset into services of their own, which v1.0's drivers and
+#: sensors answered.
+SERVICE_EQUIVALENTS: Mapping[str, tuple[str, ...]] = {
+    MANIPULATOR + "ManipulatorJointVelocityDriver": (
+        MANIPULATOR + "ManipulatorJointVelocitiesDriver",),
+    MANIPULATOR + "PanTiltJointVelocityDriver": (MANIPULATOR + "PanTiltJointVelocitiesDriver",),
+    MANIPULATOR + "ManipulatorJointPositionListDriver": (
+        MANIPULATOR + "ManipulatorJointPositionsListDriver",),
+    MANIPULATOR + "ManipulatorListDriver": (
+        MANIPULATOR + "ManipulatorJointPositionsListDriver",
+        MANIPULATOR + "ManipulatorEndEffectorPoseListDriver"),
+    MANIPULATOR + "ManipulatorSpecificationService": (
+        MANIPULATOR + "PrimitiveManipulator", MANIPULATOR + "ManipulatorJointPositionSensor",
+        MANIPULATOR + "ManipulatorJointPositionDriver"),
+    MANIPULATOR + "ManipulatorJointMotionProfile": (
+        MANIPULATOR + "ManipulatorJointPositionDriver",
+        MANIPULATOR + "ManipulatorJointVelocitiesDriver"),
+    MANIPULATOR + "ManipulatorToolOffsetService": (
+        MANIPULATOR + "ManipulatorEndEffectorPoseSensor",
+        MANIPULATOR + "ManipulatorEndEffectorPoseDriver"),
+    MANIPULATOR + "PanTiltSpecificationService": (
+        MANIPULATOR + "PrimitivePanTilt", MANIPULATOR + "PanTiltJointPositionSensor"),
+    MANIPULATOR + "PanTiltMotionProfileService": (
+        MANIPULATOR + "PanTiltJointPositionDriver", MANIPULATOR + "PanTiltJointVelocitiesDriver"),
+}
+_EQUIVALENT_OF: dict[str, list[str]] = {}
+for _newer, _older in SERVICE_EQUIVALENTS.items():
+    for _uri in _older:
+        _EQUIVALENT_OF.setdefault(_uri, []).append(_newer)
 
 #: ReportIdentification.type values
 IDENTIFICATION_TYPES: Mapping[int, str] = {
@@ -83,10 +123,14 @@ Service = tuple[str, str]
 
 
 def with_inherited(services: Iterable[Service]) -> tuple[Service, ...]:
-    """``services`` plus every service they inherit from (version of the child)."""
+    """``services`` plus every service they inherit from (version of the child), and the
+    services of another version they stand for (:data:`SERVICE_EQUIVALENTS`)."""
     result: dict[str, str] = {}
     for uri, version in services:
         result.setdefault(uri, version)
+    for uri, version in list(result.items()):
+        for newer in _EQUIVALENT_OF.get(uri, ()) if version.startswith("1.") else ():
+            result.setdefault(newer, version)
     for uri, version in list(result.items()):
         parent = SERVICE_PARENTS.get(uri)
         seen = {uri}

@@ -242,6 +242,13 @@ class Engine:
             self._handle(vehicle, source, name, fields, now)
         self._timer_pass.run(now)
 
+    def dialects_of(self, address: JausAddress) -> tuple[str, ...]:
+        """The message dialects the vehicle of ``address`` speaks (its profile's, or
+        recognised from its services; none for an unknown subsystem): decode what it sends
+        and encode what goes to it with these."""
+        vehicle = self._state.vehicles.get(address.subsystem)
+        return () if vehicle is None else self._state.dialects(vehicle)
+
     def receive_sample(self, topic: str, sample: Mapping[str, Any], now: float) -> None:
         """A DDS sample (as a dict) of ``topic`` arrived at ``now``."""
         state = self._state

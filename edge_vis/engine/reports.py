@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Mapping
+from functools import partial
 from typing import Any
 
 from edge_vis.engine.discovery import CORE, pick
@@ -52,7 +53,9 @@ class Reports:
                 rate = state.profile.report_rate(spec.report, spec.rate, vehicle.profile)
                 sub = Subscription(providers[0], spec.report, spec.query, spec.query_fields,
                                    min(rate, MAX_RATE), spec.on_change, state.profile.events,
-                                   state.encode_query, vehicle.next_request_id)
+                                   partial(state.encode_query,
+                                           dialects=state.dialects(vehicle)),
+                                   vehicle.next_request_id)
                 vehicle.subscriptions[key] = sub
             if sub.state is SubscriptionState.NEW:
                 starting.append(sub)
@@ -122,7 +125,7 @@ class Reports:
                  now: float) -> None:
         """Event: count it against its subscription, then handle the report inside."""
         counters = self._state.counters
-        inner = self._unwrap(fields)
+        inner = self._unwrap(vehicle, fields)
         if inner is None:
             counters["events_undecodable"] += 1
             return
@@ -141,13 +144,16 @@ class Reports:
         counters["events_received"] += 1
         self._handle(vehicle, source, name, inner_fields, now)
 
-    def _unwrap(self, fields: Mapping[str, Any]) -> tuple[str, Mapping[str, Any]] | None:
+    def _unwrap(self, vehicle: Vehicle,
+                fields: Mapping[str, Any]) -> tuple[str, Mapping[str, Any]] | None:
         payload: Any = fields.get("report_message")
         if hasattr(payload, "name"):
             name, inner = payload.name, payload.fields
         elif isinstance(payload, bytes | bytearray):
             try:
-                message = self._state.catalogue.decode(bytes(payload))
+                dialects = self._state.dialects(vehicle)
+                message = self._state.catalogue.decode(bytes(payload), dialects) \
+                    if dialects else self._state.catalogue.decode(bytes(payload))
             except Exception as exc:  # a DecodeError from the remote: count and drop
                 log.debug("undecodable report in Event: %s", exc)
                 return None

@@ -33,9 +33,28 @@ Handler = Callable[[Vehicle, JausAddress, Mapping[str, Any], float], None]
 class InnerCodec(Protocol):
     """What the engine needs from the catalogue: the payloads nested in events."""
 
-    def encode(self, name_or_code: str | int, fields: Mapping[str, Any]) -> bytes: ...
+    def encode(self, name_or_code: str | int, fields: Mapping[str, Any],
+               dialects: Sequence[str] = ()) -> bytes: ...
 
-    def decode(self, payload: bytes) -> Any: ...
+    def decode(self, payload: bytes, dialects: Sequence[str] = ()) -> Any: ...
+
+
+def dialects_of(catalogue: Any, vehicle: Vehicle) -> tuple[str, ...]:
+    """The message dialects ``vehicle`` speaks: its profile's ``dialects`` when given,
+    else those its services are recognised by (none: the base definitions)."""
+    for profile in (vehicle.profile, vehicle.announced_by):
+        if profile is not None and profile.dialects is not None:
+            return profile.dialects
+    recognise = getattr(catalogue, "recognise", None)
+    if recognise is None or not vehicle.components:
+        return ()
+    services = vehicle.all_services()
+    cached = vehicle.dialect_cache
+    if cached is not None and cached[0] == services:
+        return cached[1]
+    found: tuple[str, ...] = tuple(recognise(services))
+    vehicle.dialect_cache = (services, found)
+    return found
 
 
 class EngineState:
@@ -79,14 +98,21 @@ class EngineState:
             self._catalogue = default_catalogue()
         return self._catalogue
 
-    def encode_query(self, name: str, fields: Mapping[str, Any]) -> bytes:
-        """The complete query message a CreateEvent carries."""
+    def encode_query(self, name: str, fields: Mapping[str, Any],
+                     dialects: Sequence[str] = ()) -> bytes:
+        """The complete query message a CreateEvent carries (as ``dialects`` read it)."""
+        if dialects:
+            return self.catalogue.encode(name, fields, dialects)
         return self.catalogue.encode(name, fields)
 
     def serves(self, vehicle: Vehicle) -> bool:
         """This relay serves ``vehicle``: creates its events, holds its control, sends its
         commands and publishes its samples."""
         return vehicle.serving or not self.arbitrated
+
+    def dialects(self, vehicle: Vehicle) -> tuple[str, ...]:
+        """The message dialects ``vehicle`` speaks (see :func:`dialects_of`)."""
+        return dialects_of(self.catalogue, vehicle)
 
     def touch(self, vehicle: Vehicle) -> None:
         """``vehicle``'s state changed: the next pass must visit it."""

@@ -83,6 +83,8 @@ class Vehicle:
     last_probe_at: float | None = None
     #: when commands for it arrived while another relay served it (newest last, bounded)
     not_sent_at: list[float] = field(default_factory=list)
+    #: (services, the dialects they were recognised as): recognised once per change
+    dialect_cache: tuple[tuple[Service, ...], tuple[str, ...]] | None = None
 
     def __post_init__(self) -> None:
         self.discovery.label = self.vehicle_id

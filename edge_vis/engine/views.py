@@ -92,6 +92,7 @@ class Views:
             emergency_operator=vehicle.estop.operator_id if vehicle.estop else "",
             emergency_reason=vehicle.estop.reason if vehicle.estop else "",
             relay=state.profile.relay_name if state.serves(vehicle) else "",
+            dialects=self._state.dialects(vehicle),
         )
 
     def context(self, vehicle: Vehicle | None, now: float,

@@ -149,6 +149,9 @@ class VehicleView:
     clock: ClockView | None = None
     #: the relay serving it (this one's name while it does; see ``[serving]``)
     relay: str = ""
+    #: the message dialects it speaks (``manipulator-1.0``, ``iop``): its messages are
+    #: decoded and encoded with those definitions
+    dialects: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)

@@ -360,7 +360,9 @@ class Runtime:
                 if packet.message_code is None:
                     continue
                 try:
-                    message = self.catalogue.decode(packet.payload)
+                    dialects = engine.dialects_of(packet.source) if engine is not None \
+                        else ()
+                    message = self.catalogue.decode(packet.payload, dialects)
                 except CodecError as exc:
                     self.counters["undecodable messages"] += 1
                     self._log.warning("decode", now, "undecodable message from %s: %s",
@@ -397,7 +399,10 @@ class Runtime:
 
     def _send(self, action: SendMessage, now: float) -> None:
         try:
-            payload = self.catalogue.encode(_code_of(self.catalogue, action), action.fields)
+            dialects = self.engine.dialects_of(action.destination) \
+                if self.engine is not None and not action.destination.is_broadcast else ()
+            payload = self.catalogue.encode(_code_of(self.catalogue, action), action.fields,
+                                            dialects)
         except EdgeVisError as exc:
             self.counters["encode errors"] += 1
             log.error("cannot encode %s for %s: %s", action.name, action.destination, exc)

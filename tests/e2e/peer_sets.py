@@ -44,17 +44,21 @@ class SetPeer(asyncio.DatagramProtocol):
     """One JAUS component offering ``services`` and answering the queries in ``reports``.
 
     ``reports`` maps a query name to a function of the query's fields giving the report
-    ``(name, fields)``. ``discoverable=False`` ignores QueryIdentification/QueryServices
-    (a vehicle that only says hello).
+    ``(name, fields)``; ``version`` is what it reports for ``services``.
+    ``discoverable=False`` ignores QueryIdentification/QueryServices (a vehicle that only
+    says hello).
     """
 
     def __init__(self, address: JausAddress, services: tuple[str, ...],
                  reports: dict[str, Report], *, name: str = "SetBot",
                  catalogue: Catalogue | None = None, mtu: int = 1400,
                  discoverable: bool = True, confirm_events: bool = True,
-                 on_command: dict[str, Replies] | None = None) -> None:
+                 on_command: dict[str, Replies] | None = None,
+                 version: tuple[int, int] = (1, 0)) -> None:
         self.address = address
         self.services = CORE + services
+        #: the version it reports for ``services`` (the core ones are 1.0)
+        self.versions = {u: (1, 0) for u in CORE} | {u: version for u in services}
         self.reports = reports
         self.name = name
         self.catalogue = catalogue or default_catalogue()
@@ -138,8 +142,9 @@ class SetPeer(asyncio.DatagramProtocol):
                 "component_list": [{
                     "component_rec": {"component_id": self.address.component,
                                       "instance_id": 0},
-                    "service_list": [{"uri": u, "major_version_number": 1,
-                                      "minor_version_number": 0} for u in self.services],
+                    "service_list": [{"uri": u, "major_version_number": self.versions[u][0],
+                                      "minor_version_number": self.versions[u][1]}
+                                     for u in self.services],
                 }]}]})
         elif name == "RequestControl":
             self.controller = src

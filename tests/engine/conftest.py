@@ -94,7 +94,11 @@ class Harness:
                 name: str | int = action.name
                 if action.service_set is not None:  # a name two message sets use
                     name = self.catalogue.by_name(action.name, action.service_set).code
-                self.catalogue.encode(name, dict(action.fields))
+                dialects = self.engine.dialects_of(action.destination)
+                if dialects:  # as the relay does: in the layout the vehicle speaks
+                    self.catalogue.encode(name, dict(action.fields), dialects)
+                else:
+                    self.catalogue.encode(name, dict(action.fields))
         self.log.extend(actions)
         return actions
 

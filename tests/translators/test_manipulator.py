@@ -61,6 +61,23 @@ COMMAND_CASES: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
          "angular_velocity_component_y": 0.0, "angular_velocity_component_z": -0.5}),
     "SetEndEffectorEffort": ({"effort": 150.0}, {"end_effector_effort": 100.0}),
     "ExecuteList": ({"values": [3.0]}, {"element_uid": 3}),
+    "SetJointMotionProfile": (
+        {"values": [1.0, 2.0, 3.0, 9.0, 30.0, 0.5], "units": ["rad", "m"]},
+        {"joint_motion_profile_list": [
+            {"revolute_joint_motion_profile_rec": {
+                "joint_max_speed": 1.0, "joint_max_acceleration_rate": 2.0,
+                "joint_max_deceleration_rate": 3.0}},
+            {"prismatic_joint_motion_profile_rec": {
+                "joint_max_speed": 5.0, "joint_max_acceleration_rate": 20.0,
+                "joint_max_deceleration_rate": 0.5}}]}),
+    "SetPanTiltMotionProfile": (
+        {"values": [1.0, 2.0, 3.0, 4.0, 5.0, 99.0]},
+        {"joint1_max_speed": 1.0, "joint1_max_acceleration_rate": 2.0,
+         "joint1_max_deceleration_rate": 3.0, "joint2_max_speed": 4.0,
+         "joint2_max_acceleration_rate": 5.0, "joint2_max_deceleration_rate": 10 * math.pi}),
+    "SetToolOffset": ({"x": 0.1, "y": -0.2, "z": 40.0},
+                      {"tool_point_coordinate_x": 0.1, "tool_point_coordinate_y": -0.2,
+                       "tool_point_coordinate_z": 15.0}),
 }
 
 
@@ -146,5 +163,6 @@ def test_pan_tilt_and_end_effector_reports() -> None:
 def test_declarations() -> None:
     tr = TR()
     assert set(tr.subscribes) == {"JointCommand", "EndEffectorCommand"}
-    assert {"JointState", "EndEffectorPose", "EndEffectorVelocity"} == set(tr.publishes)
+    assert {"JointState", "JointSpecification", "EndEffectorPose",
+            "EndEffectorVelocity"} == set(tr.publishes)
     assert all(s.startswith("urn:jaus:jss:manipulator:") for s in tr.controlled_services)

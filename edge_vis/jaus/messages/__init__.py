@@ -5,15 +5,19 @@ Each module exports ``MESSAGES: tuple[MessageDef, ...]``; the modules are genera
 run time. 337 messages in all: core 57, mobility 46, environment 35, manipulator 62, ugv 47, iop
 54, hmi 19, mission_spooler 17.
 
-A catalogue is keyed by message code, so the definitions of another version that
-reuse a code with a different layout are left out. Load the JSIDL of that version
-(``edge_vis.catalogue.jsidl.load_jsidl``) to talk to a peer that uses one of them.
+A catalogue is keyed by message code. Where another published reading defines a
+code differently (manipulator v1.0, the IOP readings of mobility and UGV messages),
+its definitions are kept as a *dialect* (``DIALECTS`` of the set's module): a
+vehicle that speaks it (its profile's ``dialects``, or the services it reports)
+has those codes decoded and encoded with the dialect's definitions. Other
+definitions that reuse a code are left out (listed below); load the JSIDL of that
+version (``edge_vis.catalogue.jsidl.load_jsidl``) to talk to a peer that uses one.
 
 Versions kept: core 1.1 (every core 1.0 message has the same layout and lists the
 1.0 services too), mobility 1.0, environmentSensing 1.0, manipulator 2.0, ugv 1.0, the
 IOP services as published by FKIE, HMI 1.0 and the mission spooler. Manipulator 1.0
-has no code of its own: its messages either match 2.0 under a plural name (their
-services are listed on the 2.0 definition) or are listed below. Mobility 1.1 and
+has no code of its own: its messages match 2.0 under a plural name (their services
+are listed on the 2.0 definition too) or differ (its dialect). Mobility 1.1 and
 environmentSensing 2.0 are not in the public JSIDL these modules come from.
 
 Representation choices: a JSIDL ``array`` (fixed dimensions, no count on the wire)
@@ -24,44 +28,13 @@ nor value set keep their units only where the DSL's Int/Float can carry them.
 
 Left out:
 
-* 0x0607 SetMotionProfile (IOP manipulator (older copy)): code taken by the kept
-  SetJointMotionProfile (body: fields ['joint_motion_profile_list'] vs ['motion_profile_list'];
-  named SetMotionProfile)
 * 0x4600 ReportManipulatorSpecifications (IOP manipulator (older copy)): code taken by the kept
-  ReportManipulatorSpecifications (body: fields ['manipulator_coordinate_system_rec',
-  'first_joint_parameters', 'joint_specification_list', 'joint_names_list'] vs
-  ['manipulator_coordinate_system_rec', 'first_joint_parameters', 'joint_specification_list'])
-* 0x4607 ReportMotionProfile (IOP manipulator (older copy)): code taken by the kept
-  ReportJointMotionProfile (body: fields ['joint_motion_profile_list'] vs
-  ['motion_profile_list']; named ReportMotionProfile)
-* 0x0407 SetGlobalVector (IOP mobility v1.0): code taken by the kept SetGlobalVector (speed:
-  optional vs mandatory)
-* 0x0408 SetLocalVector (IOP mobility v1.0): code taken by the kept SetLocalVector (speed:
-  optional vs mandatory)
-* 0x4407 ReportGlobalVector (IOP mobility v1.0): code taken by the kept ReportGlobalVector
-  (speed: optional vs mandatory)
-* 0x4408 ReportLocalVector (IOP mobility v1.0): code taken by the kept ReportLocalVector (speed:
-  optional vs mandatory)
-* 0x4417 ReportAccelerationState (IOP mobility v1.0): code taken by the kept
-  ReportAccelerationState (acceleration_x: optional vs mandatory)
+  ReportManipulatorSpecifications (manipulator-1.0 already defines it as
+  ReportManipulatorSpecifications:
+  joint_specification_list[].prismatic_joint_specification_rec.max_force: u32[0..5000] newton vs
+  u32[0..5000] newton meter)
 * 0xF92A CBRNScanWindowConfigurationCommand (IOP services): same code as QueryMeasurement, which
   is kept (chosen deliberately)
-* 0x4504 ReportStabilizerPosition (IOP ugv v1.0): code taken by the kept
-  ReportStabilizerPosition (stabilizer_position[]: fields ['stabilizer_id',
-  'commanded_position', 'actual_position'] vs ['stabilizer_id', 'position'])
-* 0x4505 ReportStabilizerCapabilities (IOP ugv v1.0): code taken by the kept
-  ReportStabilizerCapabilities (stabilizer_capabilities[].stabilizer_dimensions_list[].point_x:
-  u16[-32.768..32.767] meter vs u16[0..30])
-* 0x0607 SetMotionProfile (JTS manipulator v1.0): code taken by the kept SetJointMotionProfile
-  (body: fields ['joint_motion_profile_list'] vs ['motion_profile_list']; named
-  SetMotionProfile)
-* 0x4600 ReportManipulatorSpecifications (JTS manipulator v1.0): code taken by the kept
-  ReportManipulatorSpecifications (body: fields ['manipulator_coordinate_system_rec',
-  'first_joint_parameters', 'joint_specification_list', 'joint_names_list'] vs
-  ['manipulator_coordinate_system_rec', 'first_joint_parameters', 'joint_specification_list'])
-* 0x4607 ReportMotionProfile (JTS manipulator v1.0): code taken by the kept
-  ReportJointMotionProfile (body: fields ['joint_motion_profile_list'] vs
-  ['motion_profile_list']; named ReportMotionProfile)
 
 Not readable in the public JSIDL (left out; a strict reading rejects them):
 

@@ -15,9 +15,9 @@ Differences between readings (the kept definition is named first):
 * 0x0603 SetJointVelocity / SetJointVelocities (JTS manipulator v1.0): same layout under another
   name
 * 0x0607 SetJointMotionProfile / SetMotionProfile (IOP manipulator (older copy)): body: fields
-  ['joint_motion_profile_list'] vs ['motion_profile_list']
+  ['joint_motion_profile_list'] vs ['motion_profile_list']; dialect manipulator-1.0
 * 0x0607 SetJointMotionProfile / SetMotionProfile (JTS manipulator v1.0): body: fields
-  ['joint_motion_profile_list'] vs ['motion_profile_list']
+  ['joint_motion_profile_list'] vs ['motion_profile_list']; dialect manipulator-1.0
 * 0x0621 SetPanTiltJointEffort / SetPanTiltJointEfforts (JTS manipulator v1.0): same layout
   under another name
 * 0x0623 SetPanTiltJointVelocity / SetPanTiltJointVelocities (IOP manipulator (older copy)):
@@ -50,14 +50,14 @@ Differences between readings (the kept definition is named first):
   manipulator (older copy)): same layout under another name
 * 0x2631 QueryCommandedPanTiltJointVelocity / QueryCommandedPanTiltJointVelocities (JTS
   manipulator v1.0): same layout under another name
-* 0x4600 ReportManipulatorSpecifications (IOP manipulator (older copy)): body: fields
-  ['manipulator_coordinate_system_rec', 'first_joint_parameters', 'joint_specification_list',
-  'joint_names_list'] vs ['manipulator_coordinate_system_rec', 'first_joint_parameters',
-  'joint_specification_list']
+* 0x4600 ReportManipulatorSpecifications (IOP manipulator (older copy)): manipulator-1.0 already
+  defines it as ReportManipulatorSpecifications:
+  joint_specification_list[].prismatic_joint_specification_rec.max_force: u32[0..5000] newton vs
+  u32[0..5000] newton meter
 * 0x4600 ReportManipulatorSpecifications (JTS manipulator v1.0): body: fields
   ['manipulator_coordinate_system_rec', 'first_joint_parameters', 'joint_specification_list',
   'joint_names_list'] vs ['manipulator_coordinate_system_rec', 'first_joint_parameters',
-  'joint_specification_list']
+  'joint_specification_list']; dialect manipulator-1.0
 * 0x4601 ReportJointEffort / ReportJointEfforts (JTS manipulator v1.0): same layout under
   another name
 * 0x4602 ReportJointPositions / ReportJointPosition (IOP manipulator (older copy)): same layout
@@ -67,9 +67,9 @@ Differences between readings (the kept definition is named first):
 * 0x4603 ReportJointVelocity / ReportJointVelocities (JTS manipulator v1.0): same layout under
   another name
 * 0x4607 ReportJointMotionProfile / ReportMotionProfile (IOP manipulator (older copy)): body:
-  fields ['joint_motion_profile_list'] vs ['motion_profile_list']
+  fields ['joint_motion_profile_list'] vs ['motion_profile_list']; dialect manipulator-1.0
 * 0x4607 ReportJointMotionProfile / ReportMotionProfile (JTS manipulator v1.0): body: fields
-  ['joint_motion_profile_list'] vs ['motion_profile_list']
+  ['joint_motion_profile_list'] vs ['motion_profile_list']; dialect manipulator-1.0
 * 0x4611 ReportCommandedJointVelocity / ReportCommandedJointVelocities (IOP manipulator (older
   copy)): same layout under another name
 * 0x4611 ReportCommandedJointVelocity / ReportCommandedJointVelocities (JTS manipulator v1.0):
@@ -91,6 +91,7 @@ from __future__ import annotations
 import math
 
 from edge_vis.codec.types import (
+    Dialect,
     List,
     MessageDef,
     Scaled,
@@ -235,10 +236,86 @@ JOINT_VELOCITY_LIST = List(
     ),
     "JointVelocityList",
 )
+MANIPULATOR_COORDINATE_SYSTEM_REC = record(
+    f(
+        "manipulator_coordinate_sys_x",
+        Scaled(u32, -30, 30, "meter"),
+        jsidl="ManipulatorCoordinateSysX",
+    ),
+    f(
+        "manipulator_coordinate_sys_y",
+        Scaled(u32, -30, 30, "meter"),
+        jsidl="ManipulatorCoordinateSysY",
+    ),
+    f(
+        "manipulator_coordinate_sys_z",
+        Scaled(u32, -30, 30, "meter"),
+        jsidl="ManipulatorCoordinateSysZ",
+    ),
+    f("d_component_of_unit_quaternion_q", Scaled(u32, -1, 1), jsidl="DComponentOfUnitQuaternionQ"),
+    f("a_component_of_unit_quaternion_q", Scaled(u32, -1, 1), jsidl="AComponentOfUnitQuaternionQ"),
+    f("b_component_of_unit_quaternion_q", Scaled(u32, -1, 1), jsidl="BComponentOfUnitQuaternionQ"),
+    f("c_component_of_unit_quaternion_q", Scaled(u32, -1, 1), jsidl="CComponentOfUnitQuaternionQ"),
+    name="ManipulatorCoordinateSystemRec",
+)
 JOINT_EFFORT_LIST = List(
     u8,
     record(f("joint_effort", Scaled(u16, -100, 100), jsidl="JointEffort"), name="JointEffortRec"),
     "JointEffortList",
+)
+MOTION_PROFILE_LIST = List(
+    u8,
+    Variant(
+        u8,
+        (
+            f(
+                "revolute_motion_profile_rec",
+                record(
+                    f(
+                        "joint_max_speed",
+                        Scaled(u32, 0, 10 * PI, "radian per second"),
+                        jsidl="JointMaxSpeed",
+                    ),
+                    f(
+                        "joint_max_acceleration_rate",
+                        Scaled(u32, 0, 10 * PI, "radian per second squared"),
+                        jsidl="JointMaxAccelerationRate",
+                    ),
+                    f(
+                        "joint_max_deceleration_rate",
+                        Scaled(u32, 0, 10 * PI, "radian per second squared"),
+                        jsidl="JointMaxDecelerationRate",
+                    ),
+                    name="RevoluteMotionProfileRec",
+                ),
+                jsidl="RevoluteMotionProfileRec",
+            ),
+            f(
+                "prismatic_motion_profile_rec",
+                record(
+                    f(
+                        "joint_max_speed",
+                        Scaled(u32, 0, 5, "meter per second"),
+                        jsidl="JointMaxSpeed",
+                    ),
+                    f(
+                        "joint_max_acceleration_rate",
+                        Scaled(u32, 0, 20, "meter per second squared"),
+                        jsidl="JointMaxAccelerationRate",
+                    ),
+                    f(
+                        "joint_max_deceleration_rate",
+                        Scaled(u32, 0, 20, "meter per second squared"),
+                        jsidl="JointMaxDecelerationRate",
+                    ),
+                    name="PrismaticMotionProfileRec",
+                ),
+                jsidl="PrismaticMotionProfileRec",
+            ),
+        ),
+        name="JointType",
+    ),
+    "MotionProfileList",
 )
 
 MESSAGES: tuple[MessageDef, ...] = (
@@ -817,44 +894,7 @@ MESSAGES: tuple[MessageDef, ...] = (
         "ReportManipulatorSpecifications",
         opt(
             "manipulator_coordinate_system_rec",
-            record(
-                f(
-                    "manipulator_coordinate_sys_x",
-                    Scaled(u32, -30, 30, "meter"),
-                    jsidl="ManipulatorCoordinateSysX",
-                ),
-                f(
-                    "manipulator_coordinate_sys_y",
-                    Scaled(u32, -30, 30, "meter"),
-                    jsidl="ManipulatorCoordinateSysY",
-                ),
-                f(
-                    "manipulator_coordinate_sys_z",
-                    Scaled(u32, -30, 30, "meter"),
-                    jsidl="ManipulatorCoordinateSysZ",
-                ),
-                f(
-                    "d_component_of_unit_quaternion_q",
-                    Scaled(u32, -1, 1),
-                    jsidl="DComponentOfUnitQuaternionQ",
-                ),
-                f(
-                    "a_component_of_unit_quaternion_q",
-                    Scaled(u32, -1, 1),
-                    jsidl="AComponentOfUnitQuaternionQ",
-                ),
-                f(
-                    "b_component_of_unit_quaternion_q",
-                    Scaled(u32, -1, 1),
-                    jsidl="BComponentOfUnitQuaternionQ",
-                ),
-                f(
-                    "c_component_of_unit_quaternion_q",
-                    Scaled(u32, -1, 1),
-                    jsidl="CComponentOfUnitQuaternionQ",
-                ),
-                name="ManipulatorCoordinateSystemRec",
-            ),
+            MANIPULATOR_COORDINATE_SYSTEM_REC,
             jsidl="ManipulatorCoordinateSystemRec",
         ),
         f(
@@ -1572,5 +1612,438 @@ MESSAGES: tuple[MessageDef, ...] = (
             ("urn:jaus:jss:manipulator:PrimitivePanTiltClient", "2.0"),
         ),
         doc="Report of PrimitivePanTilt 2.0; answers QueryPanTiltJointEffort (0x2621).",
+    ),
+)
+
+# Other definitions of codes above, for vehicles that speak them
+DIALECTS: tuple[Dialect, ...] = (
+    Dialect(
+        "manipulator-1.0",
+        messages=(
+            # urn:jaus:jss:manipulator:PrimitiveManipulator 1.0
+            message(
+                0x0601,
+                "SetJointEfforts",
+                f("joint_effort_list", JOINT_EFFORT_LIST, jsidl="JointEffortList"),
+                service_set=SET,
+                services=(("urn:jaus:jss:manipulator:PrimitiveManipulator", "1.0"),),
+                doc="This message is used to control joint actuators in an open loop fashion.",
+            ),
+            # urn:jaus:jss:manipulator:ManipulatorJointVelocitiesDriver 1.0
+            message(
+                0x0603,
+                "SetJointVelocities",
+                f("joint_velocity_list", JOINT_VELOCITY_LIST, jsidl="JointVelocityList"),
+                service_set=SET,
+                services=(("urn:jaus:jss:manipulator:ManipulatorJointVelocitiesDriver", "1.0"),),
+                doc="This message sets the desired joint velocity values.",
+            ),
+            # urn:jaus:jss:manipulator:ManipulatorEndEffectorPoseDriver 1.0 (+5 more)
+            message(
+                0x0607,
+                "SetMotionProfile",
+                f("motion_profile_list", MOTION_PROFILE_LIST, jsidl="MotionProfileList"),
+                service_set=SET,
+                services=(
+                    ("urn:jaus:jss:manipulator:ManipulatorEndEffectorPoseDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorEndEffectorPoseListDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorEndEffectorVelocityStateDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorJointPositionDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorJointPositionsListDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorJointVelocitiesDriver", "1.0"),
+                ),
+                doc="This message sets maximum speeds, acceleration, and deceleration rates for each joint of the manipulator.",
+            ),
+            # urn:jaus:jss:manipulator:PrimitivePanTilt 1.0
+            message(
+                0x0621,
+                "SetPanTiltJointEfforts",
+                f("joint1_effort", Scaled(u16, -100, 100), jsidl="Joint1Effort"),
+                f("joint2_effort", Scaled(u16, -100, 100), jsidl="Joint2Effort"),
+                service_set=SET,
+                services=(("urn:jaus:jss:manipulator:PrimitivePanTilt", "1.0"),),
+                doc="This message is used to control the two joint actuators for a pan tilt mechanism in an open loop fashion.",
+            ),
+            # urn:jaus:jss:manipulator:PanTiltJointVelocitiesDriver 1.0
+            message(
+                0x0623,
+                "SetPanTiltJointVelocities",
+                f(
+                    "joint1_velocity",
+                    Scaled(u32, -10 * PI, 10 * PI, "radian per second"),
+                    jsidl="Joint1Velocity",
+                ),
+                f(
+                    "joint2_velocity",
+                    Scaled(u32, -10 * PI, 10 * PI, "radian per second"),
+                    jsidl="Joint2Velocity",
+                ),
+                service_set=SET,
+                services=(("urn:jaus:jss:manipulator:PanTiltJointVelocitiesDriver", "1.0"),),
+                doc="This message sets the desired joint velocity values for a pan tilt mechanism.",
+            ),
+            # urn:jaus:jss:manipulator:PrimitiveManipulator 1.0
+            message(
+                0x2601,
+                "QueryJointEfforts",
+                service_set=SET,
+                services=(("urn:jaus:jss:manipulator:PrimitiveManipulator", "1.0"),),
+                doc="This message shall cause the receiving service to reply to the requestor with a ID 4601h: ReportJointEfforts message.",
+            ),
+            # urn:jaus:jss:manipulator:ManipulatorJointVelocitySensor 1.0
+            message(
+                0x2603,
+                "QueryJointVelocities",
+                service_set=SET,
+                services=(("urn:jaus:jss:manipulator:ManipulatorJointVelocitySensor", "1.0"),),
+                doc="This message shall cause the receiving service to reply to the requestor with a ID 4603h: ReportJointVelocities message.",
+            ),
+            # urn:jaus:jss:manipulator:ManipulatorEndEffectorPoseDriver 1.0 (+5 more)
+            message(
+                0x2607,
+                "QueryMotionProfile",
+                service_set=SET,
+                services=(
+                    ("urn:jaus:jss:manipulator:ManipulatorEndEffectorPoseDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorEndEffectorPoseListDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorEndEffectorVelocityStateDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorJointPositionDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorJointPositionsListDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorJointVelocitiesDriver", "1.0"),
+                ),
+                doc="This message shall cause the receiving service to reply to the requestor with a ID 4607h: ReportMotionProfile message.",
+            ),
+            # urn:jaus:jss:manipulator:ManipulatorJointVelocitiesDriver 1.0
+            message(
+                0x2611,
+                "QueryCommandedJointVelocities",
+                service_set=SET,
+                services=(("urn:jaus:jss:manipulator:ManipulatorJointVelocitiesDriver", "1.0"),),
+                doc="This message shall cause the receiving service to reply to the requestor with a ID 4611h: ReportCommandedJointVelocities message.",
+            ),
+            # urn:jaus:jss:manipulator:PrimitivePanTilt 1.0
+            message(
+                0x2621,
+                "QueryPanTiltJointEfforts",
+                service_set=SET,
+                services=(("urn:jaus:jss:manipulator:PrimitivePanTilt", "1.0"),),
+                doc="This message shall cause the receiving service to reply to the requestor with a ID 4621h: ReportPanTiltJointEfforts message.",
+            ),
+            # urn:jaus:jss:manipulator:PanTiltJointVelocitySensor 1.0
+            message(
+                0x2623,
+                "QueryPanTiltJointVelocities",
+                service_set=SET,
+                services=(("urn:jaus:jss:manipulator:PanTiltJointVelocitySensor", "1.0"),),
+                doc="This message shall cause the receiving service to reply to the requestor with a ID 4623h: ReportPanTiltJointVelocities message.",
+            ),
+            # urn:jaus:jss:manipulator:PanTiltJointVelocitiesDriver 1.0
+            message(
+                0x2631,
+                "QueryCommandedPanTiltJointVelocities",
+                service_set=SET,
+                services=(("urn:jaus:jss:manipulator:PanTiltJointVelocitiesDriver", "1.0"),),
+                doc="This message shall cause the receiving service to reply to the requestor with a ID 4631h: ReportCommandedPanTiltJointVelocities message.",
+            ),
+            # urn:jaus:jss:manipulator:ManipulatorActuatorForceTorqueDriver 1.0 (+12 more)
+            message(
+                0x4600,
+                "ReportManipulatorSpecifications",
+                opt(
+                    "manipulator_coordinate_system_rec",
+                    MANIPULATOR_COORDINATE_SYSTEM_REC,
+                    jsidl="ManipulatorCoordinateSystemRec",
+                ),
+                f(
+                    "first_joint_parameters",
+                    Variant(
+                        u8,
+                        (
+                            f(
+                                "revolute_joint1_offset_rec",
+                                record(
+                                    f(
+                                        "joint1_offset",
+                                        Scaled(u16, -10, 10, "meter"),
+                                        jsidl="Joint1Offset",
+                                    ),
+                                    opt(
+                                        "joint1_min_value",
+                                        Scaled(u32, -8 * PI, 8 * PI, "radian"),
+                                        jsidl="Joint1MinValue",
+                                    ),
+                                    opt(
+                                        "joint1_max_value",
+                                        Scaled(u32, -8 * PI, 8 * PI, "radian"),
+                                        jsidl="Joint1MaxValue",
+                                    ),
+                                    opt(
+                                        "joint1_max_speed",
+                                        Scaled(u32, 0, 10 * PI, "radian per second"),
+                                        jsidl="Joint1MaxSpeed",
+                                    ),
+                                    opt(
+                                        "joint1_max_torque",
+                                        Scaled(u32, 0, 5000, "newton meter"),
+                                        jsidl="Joint1MaxTorque",
+                                    ),
+                                    pv=u8,
+                                    name="RevoluteJoint1OffsetRec",
+                                ),
+                                jsidl="RevoluteJoint1OffsetRec",
+                            ),
+                            f(
+                                "prismatic_joint1_angle_rec",
+                                record(
+                                    f(
+                                        "joint1_angle",
+                                        Scaled(u16, -PI, PI, "radian"),
+                                        jsidl="Joint1Angle",
+                                    ),
+                                    f(
+                                        "joint1_min_value",
+                                        Scaled(u32, -10, 10, "meter"),
+                                        jsidl="Joint1MinValue",
+                                    ),
+                                    f(
+                                        "joint1_max_value",
+                                        Scaled(u32, -10, 10, "meter"),
+                                        jsidl="Joint1MaxValue",
+                                    ),
+                                    opt(
+                                        "joint1_max_speed",
+                                        Scaled(u32, -5, 5, "meter per second"),
+                                        jsidl="Joint1MaxSpeed",
+                                    ),
+                                    opt(
+                                        "joint1_max_force",
+                                        Scaled(u32, 0, 5000, "newton"),
+                                        jsidl="Joint1MaxForce",
+                                    ),
+                                    pv=u8,
+                                    name="PrismaticJoint1AngleRec",
+                                ),
+                                jsidl="PrismaticJoint1AngleRec",
+                            ),
+                        ),
+                        name="FirstJointParameters",
+                    ),
+                    jsidl="FirstJointParameters",
+                ),
+                f(
+                    "joint_specification_list",
+                    List(
+                        u8,
+                        Variant(
+                            u8,
+                            (
+                                f(
+                                    "revolute_joint_specification_rec",
+                                    record(
+                                        f(
+                                            "link_length",
+                                            Scaled(u16, -10, 10, "meter"),
+                                            jsidl="LinkLength",
+                                        ),
+                                        f(
+                                            "twist_angle",
+                                            Scaled(u16, -PI, PI, "radian"),
+                                            jsidl="TwistAngle",
+                                        ),
+                                        f(
+                                            "joint_offset",
+                                            Scaled(u16, -10, 10, "meter"),
+                                            jsidl="JointOffset",
+                                        ),
+                                        opt(
+                                            "min_value",
+                                            Scaled(u32, -8 * PI, 8 * PI, "radian"),
+                                            jsidl="MinValue",
+                                        ),
+                                        opt(
+                                            "max_value",
+                                            Scaled(u32, -8 * PI, 8 * PI, "radian"),
+                                            jsidl="MaxValue",
+                                        ),
+                                        opt(
+                                            "max_speed",
+                                            Scaled(u32, 0, 10 * PI, "radian per second"),
+                                            jsidl="MaxSpeed",
+                                        ),
+                                        opt(
+                                            "max_torque",
+                                            Scaled(u32, 0, 5000, "newton meter"),
+                                            jsidl="MaxTorque",
+                                        ),
+                                        pv=u8,
+                                        name="RevoluteJointSpecificationRec",
+                                    ),
+                                    jsidl="RevoluteJointSpecificationRec",
+                                ),
+                                f(
+                                    "prismatic_joint_specification_rec",
+                                    record(
+                                        f(
+                                            "link_length",
+                                            Scaled(u16, -10, 10, "meter"),
+                                            jsidl="LinkLength",
+                                        ),
+                                        f(
+                                            "twist_angle",
+                                            Scaled(u16, -PI, PI, "radian"),
+                                            jsidl="TwistAngle",
+                                        ),
+                                        f(
+                                            "joint_angle",
+                                            Scaled(u16, -PI, PI, "radian"),
+                                            jsidl="JointAngle",
+                                        ),
+                                        f(
+                                            "min_value",
+                                            Scaled(u32, -10, 10, "meter"),
+                                            jsidl="MinValue",
+                                        ),
+                                        f(
+                                            "max_value",
+                                            Scaled(u32, -10, 10, "meter"),
+                                            jsidl="MaxValue",
+                                        ),
+                                        opt(
+                                            "max_speed",
+                                            Scaled(u32, -5, 5, "meter per second"),
+                                            jsidl="MaxSpeed",
+                                        ),
+                                        opt(
+                                            "max_force",
+                                            Scaled(u32, 0, 5000, "newton"),
+                                            jsidl="MaxForce",
+                                        ),
+                                        pv=u8,
+                                        name="PrismaticJointSpecificationRec",
+                                    ),
+                                    jsidl="PrismaticJointSpecificationRec",
+                                ),
+                            ),
+                            name="JointSpecifications",
+                        ),
+                        "JointSpecificationList",
+                    ),
+                    jsidl="JointSpecificationList",
+                ),
+                pv=u8,
+                service_set=SET,
+                services=(
+                    ("urn:jaus:jss:manipulator:ManipulatorActuatorForceTorqueDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorEndEffectorPoseDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorEndEffectorPoseListDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorEndEffectorPoseSensor", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorEndEffectorVelocityStateDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorEndEffectorVelocityStateSensor", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorJointForceTorqueSensor", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorJointPositionDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorJointPositionSensor", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorJointPositionsListDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorJointVelocitiesDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorJointVelocitySensor", "1.0"),
+                    ("urn:jaus:jss:manipulator:PrimitiveManipulator", "1.0"),
+                ),
+                doc="This message provides the specifications of the manipulator including the number of joints, the link length and twist angle of each link, the joint offset (for revolute joints) or joint angle (for...",
+            ),
+            # urn:jaus:jss:manipulator:PrimitiveManipulator 1.0
+            message(
+                0x4601,
+                "ReportJointEfforts",
+                f("joint_effort_list", JOINT_EFFORT_LIST, jsidl="JointEffortList"),
+                service_set=SET,
+                services=(("urn:jaus:jss:manipulator:PrimitiveManipulator", "1.0"),),
+                doc="This message is used to provide the receiver the percent effort that is currently being applied to the individual manipulator joints.",
+            ),
+            # urn:jaus:jss:manipulator:ManipulatorJointVelocitySensor 1.0
+            message(
+                0x4603,
+                "ReportJointVelocities",
+                f("joint_velocity_list", JOINT_VELOCITY_LIST, jsidl="JointVelocityList"),
+                service_set=SET,
+                services=(("urn:jaus:jss:manipulator:ManipulatorJointVelocitySensor", "1.0"),),
+                doc="This message provides the receiver with the current values of the joint velocities.",
+            ),
+            # urn:jaus:jss:manipulator:ManipulatorEndEffectorPoseDriver 1.0 (+5 more)
+            message(
+                0x4607,
+                "ReportMotionProfile",
+                f("motion_profile_list", MOTION_PROFILE_LIST, jsidl="MotionProfileList"),
+                service_set=SET,
+                services=(
+                    ("urn:jaus:jss:manipulator:ManipulatorEndEffectorPoseDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorEndEffectorPoseListDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorEndEffectorVelocityStateDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorJointPositionDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorJointPositionsListDriver", "1.0"),
+                    ("urn:jaus:jss:manipulator:ManipulatorJointVelocitiesDriver", "1.0"),
+                ),
+                doc="This message provides the receiver with the current motion profile.",
+            ),
+            # urn:jaus:jss:manipulator:ManipulatorJointVelocitiesDriver 1.0
+            message(
+                0x4611,
+                "ReportCommandedJointVelocities",
+                f("joint_velocity_list", JOINT_VELOCITY_LIST, jsidl="JointVelocityList"),
+                service_set=SET,
+                services=(("urn:jaus:jss:manipulator:ManipulatorJointVelocitiesDriver", "1.0"),),
+                doc="This message provides the receiver with the commanded joint velocities for the manipulator.",
+            ),
+            # urn:jaus:jss:manipulator:PrimitivePanTilt 1.0
+            message(
+                0x4621,
+                "ReportPanTiltJointEfforts",
+                f("joint1_effort", Scaled(u16, -100, 100), jsidl="Joint1Effort"),
+                f("joint2_effort", Scaled(u16, -100, 100), jsidl="Joint2Effort"),
+                service_set=SET,
+                services=(("urn:jaus:jss:manipulator:PrimitivePanTilt", "1.0"),),
+                doc="This message is used to provide the receiver the percent effort that is currently being applied to the two joints of the pan tilt mechanism.",
+            ),
+            # urn:jaus:jss:manipulator:PanTiltJointVelocitySensor 1.0
+            message(
+                0x4623,
+                "ReportPanTiltJointVelocities",
+                f(
+                    "joint1_velocity",
+                    Scaled(u32, -10 * PI, 10 * PI, "radian per second"),
+                    jsidl="Joint1Velocity",
+                ),
+                f(
+                    "joint2_velocity",
+                    Scaled(u32, -10 * PI, 10 * PI, "radian per second"),
+                    jsidl="Joint2Velocity",
+                ),
+                service_set=SET,
+                services=(("urn:jaus:jss:manipulator:PanTiltJointVelocitySensor", "1.0"),),
+                doc="This message provides the receiver with the current values of the joint velocities for a pan tilt mechanism.",
+            ),
+            # urn:jaus:jss:manipulator:PanTiltJointVelocitiesDriver 1.0
+            message(
+                0x4631,
+                "ReportCommandedPanTiltJointVelocities",
+                f(
+                    "joint1_velocity",
+                    Scaled(u32, -10 * PI, 10 * PI, "radian per second"),
+                    jsidl="Joint1Velocity",
+                ),
+                f(
+                    "joint2_velocity",
+                    Scaled(u32, -10 * PI, 10 * PI, "radian per second"),
+                    jsidl="Joint2Velocity",
+                ),
+                service_set=SET,
+                services=(("urn:jaus:jss:manipulator:PanTiltJointVelocitiesDriver", "1.0"),),
+                doc="This message provides the receiver with the commanded joint velocities for the pan tilt mechanism.",
+            ),
+        ),
+        aliases=(
+            ("QueryJointPosition", 0x2602),
+            ("ReportJointPosition", 0x4602),
+        ),
+        recognise=(("urn:jaus:jss:manipulator:", "1."),),
+        doc="manipulator v1.0: plural names, motion profiles and specifications as v1.0 defines them",
     ),
 )

@@ -9,11 +9,12 @@ services too.
 
 Differences between readings (the kept definition is named first):
 
-* 0x0407 SetGlobalVector (IOP mobility v1.0): speed: optional vs mandatory
-* 0x0408 SetLocalVector (IOP mobility v1.0): speed: optional vs mandatory
-* 0x4407 ReportGlobalVector (IOP mobility v1.0): speed: optional vs mandatory
-* 0x4408 ReportLocalVector (IOP mobility v1.0): speed: optional vs mandatory
-* 0x4417 ReportAccelerationState (IOP mobility v1.0): acceleration_x: optional vs mandatory
+* 0x0407 SetGlobalVector (IOP mobility v1.0): speed: optional vs mandatory; dialect iop
+* 0x0408 SetLocalVector (IOP mobility v1.0): speed: optional vs mandatory; dialect iop
+* 0x4407 ReportGlobalVector (IOP mobility v1.0): speed: optional vs mandatory; dialect iop
+* 0x4408 ReportLocalVector (IOP mobility v1.0): speed: optional vs mandatory; dialect iop
+* 0x4417 ReportAccelerationState (IOP mobility v1.0): acceleration_x: optional vs mandatory;
+  dialect iop
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import math
 
 from edge_vis.codec.types import (
     BitField,
+    Dialect,
     Enum,
     MessageDef,
     Scaled,
@@ -910,5 +912,123 @@ MESSAGES: tuple[MessageDef, ...] = (
             ("urn:jaus:jss:mobility:VelocityStateSensorClient", "1.0"),
         ),
         doc="Report of VelocityStateSensor 1.0; answers QueryVelocityState (0x2404).",
+    ),
+)
+
+# Other definitions of codes above, for vehicles that speak them
+DIALECTS: tuple[Dialect, ...] = (
+    Dialect(
+        "iop",
+        messages=(
+            # urn:jaus:jss:mobility:GlobalVectorDriver 1.0
+            message(
+                0x0407,
+                "SetGlobalVector",
+                f("speed", Scaled(u16, 0, 327.67, "meter per second"), jsidl="Speed"),
+                opt("altitude", Scaled(u32, -10000, 35000, "meter"), jsidl="Altitude"),
+                opt("heading", Scaled(u16, -PI, PI, "radian"), jsidl="Heading"),
+                opt("roll", Scaled(u16, -PI, PI, "radian"), jsidl="Roll"),
+                opt("pitch", Scaled(u16, -PI, PI, "radian"), jsidl="Pitch"),
+                pv=u8,
+                service_set=SET,
+                services=(("urn:jaus:jss:mobility:GlobalVectorDriver", "1.0"),),
+                doc="This message is used to set the driving vector based on the global coordinate system.",
+            ),
+            # urn:jaus:jss:mobility:LocalVectorDriver 1.0
+            message(
+                0x0408,
+                "SetLocalVector",
+                f("speed", Scaled(u16, 0, 327.67, "meter per second"), jsidl="Speed"),
+                opt("z", Scaled(u32, -10000, 35000, "meter"), jsidl="Z"),
+                opt("heading", Scaled(u16, -PI, PI, "radian"), jsidl="Heading"),
+                opt("roll", Scaled(u16, -PI, PI, "radian"), jsidl="Roll"),
+                opt("pitch", Scaled(u16, -PI, PI, "radian"), jsidl="Pitch"),
+                pv=u8,
+                service_set=SET,
+                services=(("urn:jaus:jss:mobility:LocalVectorDriver", "1.0"),),
+                doc="This message is used to set the driving vector based on the local coordinate system.",
+            ),
+            # urn:jaus:jss:mobility:GlobalVectorDriver 1.0
+            message(
+                0x4407,
+                "ReportGlobalVector",
+                f("speed", Scaled(u16, 0, 327.67, "meter per second"), jsidl="Speed"),
+                opt("altitude", Scaled(u32, -10000, 35000, "meter"), jsidl="Altitude"),
+                opt("heading", Scaled(u16, -PI, PI, "radian"), jsidl="Heading"),
+                opt("roll", Scaled(u16, -PI, PI, "radian"), jsidl="Roll"),
+                opt("pitch", Scaled(u16, -PI, PI, "radian"), jsidl="Pitch"),
+                pv=u8,
+                service_set=SET,
+                services=(("urn:jaus:jss:mobility:GlobalVectorDriver", "1.0"),),
+                doc="This message is used to provide the receiver the current values of the commanded global vector.",
+            ),
+            # urn:jaus:jss:mobility:LocalVectorDriver 1.0
+            message(
+                0x4408,
+                "ReportLocalVector",
+                f("speed", Scaled(u16, 0, 327.67, "meter per second"), jsidl="Speed"),
+                opt("z", Scaled(u32, -10000, 35000, "meter"), jsidl="Z"),
+                opt("heading", Scaled(u16, -PI, PI, "radian"), jsidl="Heading"),
+                opt("roll", Scaled(u16, -PI, PI, "radian"), jsidl="Roll"),
+                opt("pitch", Scaled(u16, -PI, PI, "radian"), jsidl="Pitch"),
+                pv=u8,
+                service_set=SET,
+                services=(("urn:jaus:jss:mobility:LocalVectorDriver", "1.0"),),
+                doc="This message is used to provide the receiver the current values of the commanded local vector.",
+            ),
+            # urn:jaus:jss:mobility:AccelerationStateSensor 0.6
+            message(
+                0x4417,
+                "ReportAccelerationState",
+                f(
+                    "acceleration_x",
+                    Scaled(u32, -1310.68, 1310.68, "meter per second squared"),
+                    jsidl="Acceleration_X",
+                ),
+                f(
+                    "acceleration_y",
+                    Scaled(u32, -1310.68, 1310.68, "meter per second squared"),
+                    jsidl="Acceleration_Y",
+                ),
+                f(
+                    "acceleration_z",
+                    Scaled(u32, -1310.68, 1310.68, "meter per second squared"),
+                    jsidl="Acceleration_Z",
+                ),
+                opt(
+                    "acceleration_rms",
+                    Scaled(u32, 0, 100, "meter per second squared"),
+                    jsidl="Acceleration_RMS",
+                ),
+                f(
+                    "roll_acceleration",
+                    Scaled(u32, -13106.8, 13106.8, "radian per second squared"),
+                    jsidl="RollAcceleration",
+                ),
+                f(
+                    "pitch_acceleration",
+                    Scaled(u32, -13106.8, 13106.8, "radian per second squared"),
+                    jsidl="PitchAcceleration",
+                ),
+                f(
+                    "yaw_acceleration",
+                    Scaled(u32, -13106.8, 13106.8, "radian per second squared"),
+                    jsidl="YawAcceleration",
+                ),
+                opt(
+                    "rotational_acceleration_rms",
+                    Scaled(u16, 0, PI, "radian per second squared"),
+                    jsidl="RotationalAcceleration_RMS",
+                ),
+                opt("time_stamp", TIME_STAMP, jsidl="TimeStamp"),
+                pv=u16,
+                service_set=SET,
+                services=(("urn:jaus:jss:mobility:AccelerationStateSensor", "0.6"),),
+                doc="This message is used to provide the receiver the rate of change in linear velocity and rotational rate of the platform.",
+            ),
+        ),
+        aliases=(),
+        recognise=(("urn:jaus:jss:iop:", ""),),
+        doc="the Army IOP readings of SAE messages (optional speed and acceleration, stabilizer reports)",
     ),
 )

@@ -10,10 +10,11 @@ too.
 Differences between readings (the kept definition is named first):
 
 * 0x4504 ReportStabilizerPosition (IOP ugv v1.0): stabilizer_position[]: fields
-  ['stabilizer_id', 'commanded_position', 'actual_position'] vs ['stabilizer_id', 'position']
+  ['stabilizer_id', 'commanded_position', 'actual_position'] vs ['stabilizer_id', 'position'];
+  dialect iop
 * 0x4505 ReportStabilizerCapabilities (IOP ugv v1.0):
   stabilizer_capabilities[].stabilizer_dimensions_list[].point_x: u16[-32.768..32.767] meter vs
-  u16[0..30]
+  u16[0..30]; dialect iop
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import math
 
 from edge_vis.codec.types import (
     BitField,
+    Dialect,
     Enum,
     Int,
     List,
@@ -1416,5 +1418,99 @@ MESSAGES: tuple[MessageDef, ...] = (
         service_set=SET,
         services=(("urn:jaus:jss:ugv:StabilizerDriver", "1.0"),),
         doc="Report of StabilizerDriver 1.0; answers QueryStabilizerCapabilities (0x2505).",
+    ),
+)
+
+# Other definitions of codes above, for vehicles that speak them
+DIALECTS: tuple[Dialect, ...] = (
+    Dialect(
+        "iop",
+        messages=(
+            # urn:jaus:jss:ugv:StabilizerDriver 1.0 (+1 more)
+            message(
+                0x4504,
+                "ReportStabilizerPosition",
+                f(
+                    "stabilizer_position",
+                    List(
+                        u8,
+                        record(
+                            f("stabilizer_id", u8, jsidl="StabilizerID"),
+                            f(
+                                "position",
+                                Scaled(u16, -3.14159, 3.14159, "radian"),
+                                jsidl="Position",
+                            ),
+                            name="StabilizerPositionRec",
+                        ),
+                        "StabilizerPosition",
+                    ),
+                    jsidl="StabilizerPosition",
+                ),
+                service_set=SET,
+                services=(
+                    ("urn:jaus:jss:ugv:StabilizerDriver", "1.0"),
+                    ("urn:jaus:jss:ugv:StabilizerDriverClient", "1.0"),
+                ),
+                doc="Reports commanded Stabilizer position",
+            ),
+            # urn:jaus:jss:ugv:StabilizerDriver 1.0 (+1 more)
+            message(
+                0x4505,
+                "ReportStabilizerCapabilities",
+                f(
+                    "stabilizer_capabilities",
+                    List(
+                        u8,
+                        record(
+                            f(
+                                "stabilizer_capabilities_rec",
+                                record(
+                                    f("stabilizer_id", u8, jsidl="StabilizerID"),
+                                    f(
+                                        "maximum_up_angle",
+                                        Scaled(u16, 0, 3.14159, "radian"),
+                                        jsidl="MaximumUpAngle",
+                                    ),
+                                    f(
+                                        "maximum_down_angle",
+                                        Scaled(u16, -3.14158, 0, "radian"),
+                                        jsidl="MaximumDownAngle",
+                                    ),
+                                    name="StabilizerCapabilitiesRec",
+                                ),
+                                jsidl="StabilizerCapabilitiesRec",
+                            ),
+                            f(
+                                "stabilizer_dimensions_list",
+                                List(
+                                    u8,
+                                    record(
+                                        f("point_x", Scaled(u16, 0, 30), jsidl="PointX"),
+                                        f("point_y", Scaled(u16, 0, 30), jsidl="PointY"),
+                                        f("point_z", Scaled(u16, 0, 30), jsidl="PointZ"),
+                                        name="Points",
+                                    ),
+                                    "StabilizerDimensionsList",
+                                ),
+                                jsidl="StabilizerDimensionsList",
+                            ),
+                            name="StabilizerCapabilitiesSeq",
+                        ),
+                        "StabilizerCapabilities",
+                    ),
+                    jsidl="StabilizerCapabilities",
+                ),
+                service_set=SET,
+                services=(
+                    ("urn:jaus:jss:ugv:StabilizerDriver", "1.0"),
+                    ("urn:jaus:jss:ugv:StabilizerDriverClient", "1.0"),
+                ),
+                doc="Reports vehicle stabilizer configuration",
+            ),
+        ),
+        aliases=(),
+        recognise=(("urn:jaus:jss:iop:", ""),),
+        doc="the Army IOP readings of SAE messages (optional speed and acceleration, stabilizer reports)",
     ),
 )
