@@ -182,7 +182,9 @@ class Duty:
                     if entry.serving:
                         others.append(relay)
             chosen = choose_server(claims, state.profile.serving.hysteresis, vid)
-            if vehicle.serving and chosen != self.name:
+            if vehicle.serving and chosen is not None and chosen != self.name:
+                # (a vehicle nobody reaches stays with its server: it keeps saying
+                # offline, and sets the vehicle up again when it comes back)
                 self._stop(vehicle, chosen, now)
                 changed = True
             elif not vehicle.serving and chosen == self.name and not others:

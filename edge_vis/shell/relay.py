@@ -133,8 +133,11 @@ class Runtime:
         for link_profile in self.profile.links:
             await self._open_link(link_profile)
         log.info(
-            "relay %s (%s) running: links %s, translators %s",
-            self.profile.jaus_id, self.profile.name, ", ".join(self.links) or "none",
+            "relay %s (%s%s) running: links %s, translators %s",
+            self.profile.jaus_id, self.profile.name,
+            f", named {self.profile.relay_name} on DDS"
+            if self.profile.relay_name != str(self.profile.jaus_id) else "",
+            ", ".join(self.links) or "none",
             ", ".join(t.name for t in self.engine.manager.translators) or "none",
         )
         if self.profile.operators.closed:

@@ -278,3 +278,23 @@ def test_emergency_stop_is_sent_by_a_relay_standing_by(catalogue: Any) -> None:
     out = pair.b.sample("EmergencyCommand", {"vehicle_id": VID, "operator_id": "op1",
                                              "authority": 10, "action": "SET"})
     assert sent(out, "SetEmergency")
+
+
+def test_a_vehicle_nobody_reaches_stays_with_its_server(catalogue: Any) -> None:
+    """A lone relay that loses a vehicle keeps it (its VehicleStatus says offline, no
+    instance is withdrawn) and sets it up again when it comes back."""
+    pair = Pair(catalogue)
+    pair.alive["b"] = False
+    discover(pair.a, events=False)
+    pair.run(2.0)
+    assert pair.serving() == {"a"}
+    pair.hears["a"] = False
+    out = pair.run(4.0)
+    assert not pair.a.engine.vehicle(VID).online
+    assert pair.serving() == {"a"}
+    assert not [x for _, x in out if isinstance(x, Withdraw)]
+    assert published([x for _, x in out], "VehicleStatus")[-1]["online"] is False
+    pair.hears["a"] = True
+    pair.a.deliver(ROBOT, "ReportHeartbeatPulse")
+    out = pair.run(1.0)
+    assert sent([x for _, x in out], "CreateEvent"), "events set up again when found"
