@@ -241,7 +241,7 @@ class ServingProfile:
     prefer: tuple[str, ...] = ()
     hysteresis: float = setting(0.25, ge=0)
     heartbeat: float = setting(0.25, gt=0, unit="s")
-    lease: float = setting(1.0, gt=0, unit="s")
+    lease: float = setting(1.5, gt=0, unit="s")
     settle: float = setting(0.5, ge=0, unit="s")
 
 

@@ -132,13 +132,18 @@ class Duty:
         """Heartbeat: forget silent peers, decide, publish this relay's status."""
         if self.next_due is None or now < self.next_due:
             return
-        lease = self._state.profile.serving.lease
+        serving = self._state.profile.serving
+        # a tick much later than due means this relay itself stalled (a loaded host): its
+        # peers' samples may still be waiting to be read, so nobody is declared gone now
+        stalled = now - self.next_due > serving.heartbeat
         for relay, peer in list(self.peers.items()):
-            if now - peer.heard_at > lease:
+            if now - peer.heard_at > serving.lease and not stalled:
                 log.warning("relay %s gone: not heard for %.1f s", relay, now - peer.heard_at)
                 self._state.counters["relays_gone"] += 1
                 self._gone[relay] = peer.heard_at
                 del self.peers[relay]
+        if stalled:
+            self._state.counters["relay_stalls"] += 1
         self._decide(now, publish=False)
         self._publish(now)
 

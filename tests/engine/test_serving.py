@@ -298,3 +298,19 @@ def test_a_vehicle_nobody_reaches_stays_with_its_server(catalogue: Any) -> None:
     found = pair.a.deliver(ROBOT, "ReportHeartbeatPulse")
     out = pair.run(1.0)
     assert sent(found + [x for _, x in out], "CreateEvent"), "events set up again when found"
+
+
+def test_a_relay_that_stalled_declares_nobody_gone_at_once(catalogue: Any) -> None:
+    """A loaded host stops b's loop for 2 s: the peers' samples wait unread, so the late
+    tick must not read as every peer gone (and b take over what a serves)."""
+    pair = Pair(catalogue)
+    pair.start()
+    b = pair.b
+    b.now += 2.0  # no timer ran meanwhile
+    b.engine.on_timer(b.now)
+    b.drain()
+    assert "42.1.1" in b.engine.duty.peers or "43.1.1" in b.engine.duty.peers
+    assert b.engine.counters["relays_gone"] == 0 and b.engine.counters["relay_stalls"] == 1
+    pair.a.now = b.now - 0.05  # a was fine all along: its next status comes in
+    pair.run(1.0)
+    assert pair.serving() == {"a"} and b.engine.counters["relays_gone"] == 0

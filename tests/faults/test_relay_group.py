@@ -27,8 +27,8 @@ pytestmark = [pytest.mark.dds]
 
 #: the vehicle's control timeout (s): a dead relay's control lapses after it
 CONTROL_TIMEOUT = 2
-#: lease (1 s) + heartbeat (0.25 s) + the control timeout + retries and event set-up
-TAKEOVER_BOUND = 1.25 + CONTROL_TIMEOUT + 1.5
+#: lease (1.5 s) + heartbeat (0.25 s) + the control timeout + retries and event set-up
+TAKEOVER_BOUND = 1.75 + CONTROL_TIMEOUT + 1.5
 
 
 def run(group: RelayGroup, body: Callable[[], Awaitable[None]], timeout: float = 45.0) -> None:
