@@ -155,7 +155,7 @@ class RelayGroup:
         self.operator = DdsBridge(self.domain, (self.partition,))
         self.operator.open_writers(["ControlRequest", "WrenchEffortCommand",
                                     "EmergencyCommand"])
-        for topic in ("VehicleStatus", "ControlStatus"):
+        for topic in ("VehicleStatus", "ControlStatus", "LinkStatus", "RelayStatus"):
             self._readers[topic] = self.operator.reader(topic)
         # the plain reader: default QoS, only the partition set
         participant = DomainParticipant(self.domain)
@@ -261,6 +261,10 @@ class RelayGroup:
     def commands_ignored(self) -> int:
         """Commands from a sender that did not hold control: must stay 0."""
         return int(self.sim.counters["commands_ignored"])
+
+    def latest(self, topic: str) -> list[dict[str, Any]]:
+        """The newest sample of every instance of a state topic (transient-local)."""
+        return self._readers[topic].read(1024)
 
     def index_of(self, relay: str) -> int:
         return [str(relay_id(i)) for i in range(self.count)].index(relay)

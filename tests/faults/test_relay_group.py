@@ -101,6 +101,17 @@ def test_relays_started_together_one_serves(tmp_path: Path, domain_id: int, part
         assert {r for _, r in group.statuses} == {str(relay_id(server))}, \
             "VehicleStatus named another relay"
         fault_record.checks += ["1 server", "standbys: no events/control"]
+        names = {str(relay_id(i)) for i in range(3)}
+        links = {(s["relay"], s["link"]) for s in group.latest("LinkStatus")}
+        assert links == {(name, "radio") for name in names}, "LinkStatus keyed by relay"
+        relays = {s["relay"]: s for s in group.latest("RelayStatus")}
+        assert set(relays) == names
+        for name, status in relays.items():
+            (entry,) = status["vehicles"]
+            assert entry["vehicle_id"] == group.vehicle_id and entry["quality"] > 0.5
+            assert entry["serving"] == (name == str(relay_id(server)))
+            assert status["links"] == [{"link": "radio", "up": True}]
+        fault_record.checks.append("LinkStatus/RelayStatus per relay")
         no_command_without_control(group, fault_record)
 
     run(group, body)
