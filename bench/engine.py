@@ -10,26 +10,41 @@ Measured in one run, on one core, with real Cyclone DDS writers:
   the sample written;
 * resident memory with every installed translator loaded and 20 vehicles discovered.
 
-Run: ``.venv/bin/python bench/engine.py`` (figures, not pass/fail).
+Each figure is measured twice in one run when the binding has DDS Security (``scripts/
+setup.sh --secure``): security off, then on (a deployment PKI made in a temporary folder by
+``edge-vis security``'s code; authenticated, every topic encrypted). Both times one reader
+of GlobalPose runs in another process (an observer identity when secured), so samples
+really leave the writer, encrypted or not.
+
+Run: ``.venv-secure/bin/python bench/engine.py`` (both), or ``.venv/bin/python
+bench/engine.py`` (security off only). Figures, not pass/fail.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import resource
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
 
-os.environ.setdefault(
-    "CYCLONEDDS_URI",
-    '<CycloneDDS><Domain id="any"><General><Interfaces><NetworkInterface address="127.0.0.1"/>'
-    "</Interfaces><AllowMulticast>false</AllowMulticast></General></Domain></CycloneDDS>",
-)
+from edge_vis.dds.cyclone_config import loopback_config
+
+# loopback, with unicast discovery so the reader process is found
+os.environ.setdefault("CYCLONEDDS_URI", loopback_config())
 
 from edge_vis.catalogue import default_catalogue
-from edge_vis.config import load_default_profile
+from edge_vis.config import DdsProfile, DdsSecurityProfile, load_default_profile
+from edge_vis.config.operators import OperatorPolicy
 from edge_vis.dds.bridge import DdsBridge
+from edge_vis.dds.secure_qos import security_available
 from edge_vis.engine.engine import Engine
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import Packet, pack_datagram, unpack_datagram
@@ -37,6 +52,7 @@ from edge_vis.kit.actions import Publish
 from edge_vis.routing.router import Deliver, Router
 
 VEHICLES = 20
+DOMAIN, PARTITION = 7, "bench-engine"
 SERVICES = ("urn:jaus:jss:core:Events", "urn:jaus:jss:core:AccessControl",
             "urn:jaus:jss:core:Management", "urn:jaus:jss:core:Liveness",
             "urn:jaus:jss:mobility:GlobalPoseSensor", "urn:jaus:jss:mobility:PrimitiveDriver")
@@ -102,10 +118,62 @@ def pose(i: int) -> dict:
                            "day": 5}}
 
 
-def main() -> None:
+def reader_process(security: dict[str, str] | None) -> subprocess.Popen[str]:
+    """A GlobalPose reader in another process (this script with ``--reader``)."""
+    return subprocess.Popen([sys.executable, __file__, "--reader", json.dumps(security)],
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+
+
+def read_until_stdin_closes(security: dict[str, str] | None) -> None:
+    settings = None if security is None else DdsSecurityProfile(
+        **{k: Path(v) if v else None for k, v in security.items()})
+    bridge = DdsBridge(DOMAIN, (PARTITION,), security=settings)
+    reader = bridge.reader("GlobalPose")
+    import threading
+
+    done = threading.Event()
+    threading.Thread(target=lambda: (sys.stdin.read(), done.set()), daemon=True).start()
+    received = 0
+    while not done.is_set():
+        received += len(reader.take(timeout=0.2))
+    bridge.close()
+    print(received, flush=True)
+
+
+def deployment_keys(folder: Path) -> tuple[DdsSecurityProfile, dict[str, str]]:
+    """A relay identity and an observer's files, made as ``edge-vis security init`` does."""
+    from edge_vis.tools.access_documents import OBSERVER
+    from edge_vis.tools.deployment_keys import SecurityDirectory
+
+    profile = dataclasses.replace(load_default_profile(), name="bench",
+                                  dds=DdsProfile(domain=DOMAIN, partitions=(PARTITION,)),
+                                  operators=OperatorPolicy())
+    keys = SecurityDirectory(folder)
+    written = keys.issue_all(profile, "bench", observers=["reader"])
+    relay, observer = written[0], written[-1]  # relays first, observers last
+    assert observer.role == OBSERVER
+    files = {k: str(v) for k, v in asdict(keys.profile_for(observer)).items()}
+    return keys.profile_for(relay), files
+
+
+def measure(security: DdsSecurityProfile | None,
+            reader_files: dict[str, str] | None) -> dict[str, Any]:
+    """One pass of every figure; the reader process runs throughout."""
+    reader = reader_process(reader_files)
+    figures: dict[str, Any] = {}
+    try:
+        figures = _measure(security)
+    finally:
+        out, _ = reader.communicate("", timeout=30)
+        figures["received"] = int(out.strip() or 0)
+    return figures
+
+
+def _measure(security: DdsSecurityProfile | None) -> dict[str, Any]:
     base_rss = rss_mb()
-    bridge = DdsBridge(domain_id=7, partitions=("bench-engine",))
+    bridge = DdsBridge(domain_id=DOMAIN, partitions=(PARTITION,), security=security)
     pipeline = Pipeline(bridge)
+    matched = bridge.wait_for_subscribers("GlobalPose", 1, timeout=15.0)
     vehicles = [JausAddress(1000 + i, 1, 1) for i in range(VEHICLES)]
     for v in vehicles:
         pipeline.discover(v, 0.0)
@@ -156,20 +224,51 @@ def main() -> None:
     p99 = latencies[int(len(latencies) * 0.99)] * 1e3
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     bridge.close()
+    return {"translators": translators, "rate": rate, "published": published,
+            "cpu": cpu_per_report, "bare": bare, "p50": p50, "p99": p99, "memory": memory,
+            "base": base_rss, "peak": peak, "matched": matched}
 
-    print(f"translators loaded: {translators}")
-    print(f"{'measure':<52}{'value':>14}")
-    print(f"{'reports in -> GlobalPose samples out (reports/s)':<52}{rate:>14,.0f}")
-    print(f"{'  samples published':<52}{published:>14,}")
-    print(f"{'  CPU per report, all threads (us)':<52}{cpu_per_report:>14.1f}")
-    print(f"{'bare Cyclone DataWriter.write (samples/s)':<52}{bare:>14,.0f}")
-    print(f"{'  ratio relay / bare':<52}{rate / bare:>14.2f}")
-    print(f"{'added latency p50 at 2,000 reports/s (ms)':<52}{p50:>14.3f}")
-    print(f"{'added latency p99 at 2,000 reports/s (ms)':<52}{p99:>14.3f}")
-    print(f"{'resident memory, 20 vehicles discovered (MiB)':<52}{memory:>14.1f}")
-    print(f"{'  of which before edge-vis set-up (interpreter+imports)':<52}{base_rss:>14.1f}")
-    print(f"{'peak resident memory during the run (MiB)':<52}{peak:>14.1f}")
+
+ROWS = (
+    ("reports in -> GlobalPose samples out (reports/s)", "rate", "{:,.0f}"),
+    ("  samples published", "published", "{:,}"),
+    ("  CPU per report, all threads (us)", "cpu", "{:.1f}"),
+    ("bare Cyclone DataWriter.write (samples/s)", "bare", "{:,.0f}"),
+    ("  ratio relay / bare", "ratio", "{:.2f}"),
+    ("added latency p50 at 2,000 reports/s (ms)", "p50", "{:.3f}"),
+    ("added latency p99 at 2,000 reports/s (ms)", "p99", "{:.3f}"),
+    ("resident memory, 20 vehicles discovered (MiB)", "memory", "{:.1f}"),
+    ("  of which before edge-vis set-up (interpreter+imports)", "base", "{:.1f}"),
+    ("peak resident memory during the run (MiB)", "peak", "{:.1f}"),
+    ("a reader in another process matched", "matched", "{}"),
+    ("  GlobalPose samples it received (best-effort)", "received", "{:,}"),
+)
+
+
+def main() -> None:
+    from importlib.metadata import version
+
+    import cyclonedds
+
+    runs = {"security off": measure(None, None)}
+    if security_available():
+        with tempfile.TemporaryDirectory() as folder:
+            relay, reader = deployment_keys(Path(folder))
+            runs["security on"] = measure(relay, reader)
+    else:
+        print("DDS Security: not in this Cyclone DDS binding (scripts/setup.sh --secure)")
+    for figures in runs.values():
+        figures["ratio"] = figures["rate"] / figures["bare"]
+    print(f"cyclonedds {version('cyclonedds')} ({Path(cyclonedds.__file__).parent})")
+    print(f"translators loaded: {next(iter(runs.values()))['translators']}")
+    print(f"{'measure':<56}" + "".join(f"{name:>14}" for name in runs))
+    for label, key, form in ROWS:
+        print(f"{label:<56}" + "".join(f"{form.format(r[key]):>14}" for r in runs.values()))
+    print("(memory figures of the second column include the first pass's)")
 
 
 if __name__ == "__main__":
-    main()
+    if sys.argv[1:2] == ["--reader"]:
+        read_until_stdin_closes(json.loads(sys.argv[2]))
+    else:
+        main()

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Prepare a Debian machine to run and test edge-vis; safe to run again at any time.
 #
-#   bash scripts/setup.sh [-v]
+#   bash scripts/setup.sh [-v] [--secure]
 #
 # 1. Debian packages that are missing: libudt-dev (UDT library the udt4py binding links
 #    against), a C++ compiler, and a Python >= 3.11 with venv and headers. `apt-get update`
@@ -13,14 +13,33 @@
 # 4. edge-vis itself, editable, with the dds, serial, udt and test extras. Skipped when
 #    pyproject.toml has not changed since the last successful run.
 #
+# --secure (or EDGE_VIS_SECURE=1) prepares a second environment for DDS Security instead:
+# Debian's Cyclone DDS 0.10.2 C library, which ships the security plugins (the PyPI wheel
+# has none), and the cyclonedds 0.10.2 Python binding built from source against it, in
+# .venv-secure (or $EDGE_VIS_VENV), with everything else as above. The default .venv keeps
+# the PyPI binding, so both bindings stay tested side by side (scripts/test.sh).
+#
 # Output is quiet unless something fails (then the tail of the log is shown) or -v /
 # EDGE_VIS_SETUP_VERBOSE=1 is given. $EDGE_VIS_PYTHON selects the interpreter.
 set -euo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-VENV="${EDGE_VIS_VENV:-$ROOT/.venv}"
 VERBOSE="${EDGE_VIS_SETUP_VERBOSE:-0}"
-[[ "${1:-}" == "-v" || "${1:-}" == "--verbose" ]] && VERBOSE=1
+SECURE="${EDGE_VIS_SECURE:-0}"
+for arg in "$@"; do
+    case "$arg" in
+        -v|--verbose) VERBOSE=1 ;;
+        --secure) SECURE=1 ;;
+        *) echo "setup: unknown option $arg (expected -v, --secure)" >&2; exit 2 ;;
+    esac
+done
+if [[ "$SECURE" == 1 ]]; then
+    VENV="${EDGE_VIS_VENV:-$ROOT/.venv-secure}"
+else
+    VENV="${EDGE_VIS_VENV:-$ROOT/.venv}"
+fi
+# the Cyclone DDS release Debian 12 ships with its security plugins, and its Python binding
+SECURE_CYCLONE="0.10.2"
 MIN_PY="3.11"
 EXTRAS="dds,serial,udt,test"
 BUILD_TOOLS=("Cython>=3,<4" "wheel" "setuptools>=68")
@@ -86,6 +105,14 @@ if command -v dpkg-query >/dev/null 2>&1; then
 elif [[ ! -f /usr/include/udt/udt.h ]]; then
     die "UDT headers (/usr/include/udt/udt.h) not found and this is not a Debian system: install libudt 4.11 development files by hand"
 fi
+if [[ "$SECURE" == 1 ]]; then
+    command -v dpkg-query >/dev/null 2>&1 || die "--secure needs Debian's Cyclone DDS packages (dpkg/apt)"
+    # libddsc0debian: the C library with libdds_security_{auth,crypto,ac}; -dev: the headers
+    # the binding compiles against; -tools: idlc, which the binding's build looks for
+    for pkg in libddsc0debian cyclonedds-dev cyclonedds-tools gcc; do
+        deb_installed "$pkg" || NEED+=("$pkg")
+    done
+fi
 
 if ((${#NEED[@]})); then
     command -v apt-get >/dev/null 2>&1 || die "missing ${NEED[*]} and no apt-get to install them"
@@ -127,9 +154,39 @@ if ! "$VPY" -c "import udt4py" >/dev/null 2>&1; then
     "$VPY" -c "import udt4py" >/dev/null 2>&1 || die "udt4py installed but does not import"
 fi
 
+# ---- 3b. (--secure) the Cyclone DDS binding built against Debian's library ---------------
+secure_binding_ok() {  # the 0.10.2 binding, loading Debian's libddsc (not a bundled one)
+    "$VPY" - "$SECURE_CYCLONE" <<'EOF' >/dev/null 2>&1
+import sys
+from importlib.metadata import version
+import cyclonedds.core  # noqa: F401  loads libddsc
+sys.exit(version("cyclonedds") != sys.argv[1])
+EOF
+}
+if [[ "$SECURE" == 1 ]] && ! secure_binding_ok; then
+    say "building the cyclonedds $SECURE_CYCLONE binding against Debian's Cyclone DDS (about 10 s)"
+    # its setup.py wants $CYCLONEDDS_HOME/{include,bin,lib/libddsc.so}: Debian spreads them
+    # over /usr/include, /usr/bin and the multiarch library directory
+    # kept in the venv: the binding records <home>/lib/libddsc.so as its last-resort path
+    home="$VENV/cyclonedds-home"
+    rm -rf "$home" && mkdir -p "$home"
+    multiarch="$(dpkg-architecture -qDEB_HOST_MULTIARCH 2>/dev/null || gcc -print-multiarch)"
+    ln -s /usr/include "$home/include"
+    ln -s /usr/bin "$home/bin"
+    ln -s "/usr/lib/$multiarch" "$home/lib"
+    [[ -e "$home/lib/libddsc.so" ]] \
+        || die "Debian's libddsc.so not found in /usr/lib/$multiarch (is cyclonedds-dev installed?)"
+    "${PIP[@]}" uninstall -y -q cyclonedds >>"$LOG" 2>&1 || true
+    # --no-cache-dir: never reuse a wheel built against another library
+    run "building cyclonedds==$SECURE_CYCLONE" env CYCLONEDDS_HOME="$home" \
+        "${PIP[@]}" install -q --no-cache-dir --no-binary cyclonedds "cyclonedds==$SECURE_CYCLONE"
+    secure_binding_ok \
+        || die "cyclonedds $SECURE_CYCLONE built but does not import against Debian's libddsc"
+fi
+
 # ---- 4. edge-vis, editable, with extras --------------------------------------------------
 STAMP="$VENV/.edge-vis-setup"
-want="$(cksum <"$ROOT/pyproject.toml" | cut -d' ' -f1) $ROOT $EXTRAS"
+want="$(cksum <"$ROOT/pyproject.toml" | cut -d' ' -f1) $ROOT $EXTRAS secure=$SECURE"
 installed_here() {  # edge_vis imports from this tree and every extra's package imports
     "$VPY" - "$ROOT" <<'EOF' >/dev/null 2>&1
 import pathlib, sys
@@ -146,4 +203,9 @@ if [[ "$(cat "$STAMP" 2>/dev/null)" != "$want" ]] || ! installed_here \
     printf '%s' "$want" >"$STAMP"
 fi
 
-say "ready: $VENV ($("$VPY" --version 2>&1))"
+if [[ "$SECURE" == 1 ]]; then
+    secure_binding_ok || die "installing edge-vis replaced the cyclonedds $SECURE_CYCLONE binding"
+    say "ready: $VENV ($("$VPY" --version 2>&1), cyclonedds $SECURE_CYCLONE with DDS Security)"
+else
+    say "ready: $VENV ($("$VPY" --version 2>&1))"
+fi

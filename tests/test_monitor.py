@@ -86,6 +86,25 @@ def test_mission_line_names_the_waypoint_only_while_one_is_active() -> None:
     assert "mission completed" in text and "wp -1" not in text
 
 
+def test_the_plan_held_and_the_spooled_mission_are_shown() -> None:
+    view = FleetView()
+    wp = {"message": "SetGlobalWaypoint"}
+    view.ingest("VehiclePlan", {"vehicle_id": "v", "component": "1.1.2", "element_count": 3,
+                                "elements": [wp], "complete": False}, 0.0)
+    assert any("holds 1/3 waypoints" in line for line in view.render(0.0))
+    view.ingest("VehiclePlan", {"vehicle_id": "v", "component": "1.1.2", "element_count": 2,
+                                "elements": [wp, {"message": "SetGlobalPathSegment"}],
+                                "complete": True}, 1.0)
+    view.ingest("SpoolerStatus", {"vehicle_id": "v", "scope": "MISSION", "id": 7,
+                                  "status": "PAUSED"}, 1.0)
+    view.ingest("SpoolerStatus", {"vehicle_id": "v", "scope": "COMMAND", "id": 7,
+                                  "status": "REFUSED"}, 1.0)
+    text = "\n".join(view.render(1.0))
+    assert "holds 2 elements" in text
+    assert "spooled mission 7 paused" in text and "refused" not in text
+    assert all(len(line) <= 80 for line in view.render(1.0))
+
+
 def test_dropouts_and_recoveries_are_counted() -> None:
     view = FleetView()
     for state, online in (("READY", True), ("OFFLINE", False), ("STANDBY", True),

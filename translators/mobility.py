@@ -14,6 +14,10 @@ No I/O. The pose, velocity, effort, vector, limit and pose-reset mappings are ru
 * ReportGeomagneticProperty -> ``GeomagneticProperty`` (magnetic variation, rad)
 * ReportActiveElement, ReportTravelSpeed, Confirm/RejectElementRequest and, for
   single-waypoint drivers, the pose reaching a waypoint -> ``MissionStatus``
+* ReportElementList, ReportElement, ReportElementCount (each waypoint list and path
+  segment driver's List Manager) and Report{Global,Local}{Waypoint,PathSegment} (what a
+  driver is going to) -> ``VehiclePlan``, the plan each component actually holds (see
+  :class:`PlanReadBack`)
 
 DDS -> JAUS (commands, throttled and control-checked by the engine):
 
@@ -26,11 +30,16 @@ DDS -> JAUS (commands, throttled and control-checked by the engine):
   [-pi, pi]; absent = unchanged; stop = speed zero)
 * ``AccelerationLimitCommand`` -> SetAccelerationLimit (MAXIMUM / MINIMUM)
 * ``PoseCommand`` -> SetGlobalPose / SetLocalPose by ``frame`` (resets a pose sensor's
-  estimate; absent = unchanged)
+  estimate; absent = unchanged); its ``magnetic_variation``, when given, ->
+  SetGeomagneticProperty
 * ``WaypointPlan`` -> the List Manager sequence to the Global/LocalWaypointListDriver
   (DeleteElement, SetElement with Set{Global,Local}Waypoint elements, ExecuteList), or
   SetTravelSpeed and Set{Global,Local}Waypoint one at a time to a vehicle with only a
   waypoint driver (see :class:`WaypointMissions`)
+* ``PathSegmentPlan`` -> the same List Manager sequence with Set{Global,Local}PathSegment
+  elements to the Global/LocalPathSegmentDriver, then ExecuteList
+* ``PlanQuery`` -> QueryElementCount and QueryElementList to every list driver: the plan
+  is read back again, every element
 
 A command that would set nothing (every member absent) is not sent. Fields a vehicle does
 not report are published as NaN, so "not reported" never reads as zero. ``timestamp_ms``
@@ -51,7 +60,9 @@ from edge_vis.kit import (
     Build,
     Command,
     Const,
+    DecodeError,
     From,
+    JausAddress,
     Publish,
     Put,
     ReportRule,
@@ -59,6 +70,7 @@ from edge_vis.kit import (
     RuleTranslator,
     TranslatorContext,
     code_of,
+    follow_up_query,
     label,
     number,
     setting,
@@ -117,6 +129,11 @@ def _is_local(value: Any) -> bool:
 def _is_global(value: Any) -> bool:
     """GLOBAL (the default)"""
     return not _is_local(value)
+
+
+def _given(value: Any) -> bool:
+    """given"""
+    return value is not None and not (isinstance(value, float) and math.isnan(value))
 
 
 def _measured(*pairs: tuple[str, str], note: str = "") -> dict[str, From]:
@@ -292,6 +309,10 @@ COMMAND_RULES = (
         doc="resets the sensor's estimate"),
     Cmd("PoseCommand", "SetLocalPose", LOCAL_POSE_SENSOR, "pose_reset",
         _set_pose(local=True), when={"frame": _is_local}, doc="resets the sensor's estimate"),
+    Cmd("PoseCommand", "SetGeomagneticProperty", GLOBAL_POSE_SENSOR, "geomagnetic",
+        {"magnetic_variation": Put("magnetic_variation", convert=wrap_angle,
+                                   note="rad, east positive, wrapped to [-pi, pi]")},
+        when={"magnetic_variation": _given}),
 )
 
 # -- waypoint missions (WaypointPlan -> List Manager / waypoint drivers -> MissionStatus) --
@@ -300,6 +321,11 @@ GLOBAL_LIST_DRIVER = MOBILITY + "GlobalWaypointListDriver"
 LOCAL_LIST_DRIVER = MOBILITY + "LocalWaypointListDriver"
 GLOBAL_WAYPOINT_DRIVER = MOBILITY + "GlobalWaypointDriver"
 LOCAL_WAYPOINT_DRIVER = MOBILITY + "LocalWaypointDriver"
+GLOBAL_SEGMENT_DRIVER = MOBILITY + "GlobalPathSegmentDriver"
+LOCAL_SEGMENT_DRIVER = MOBILITY + "LocalPathSegmentDriver"
+#: the drivers whose List Manager holds a plan the relay reads back
+LIST_DRIVERS = (GLOBAL_LIST_DRIVER, LOCAL_LIST_DRIVER, GLOBAL_SEGMENT_DRIVER,
+                LOCAL_SEGMENT_DRIVER)
 #: waypoints per SetElement: keeps each one inside a single JUDP packet
 ELEMENTS_PER_SET = 50
 #: UID that DeleteElement reads as "every element"
@@ -313,7 +339,7 @@ MISSION_MESSAGES = ("ConfirmElementRequest", "RejectElementRequest", "ReportActi
                     "ReportTravelSpeed")
 MISSION_REPORTS = tuple(
     ReportSpec(report, query, service, rate=1.0, on_change=True)
-    for service in (GLOBAL_LIST_DRIVER, LOCAL_LIST_DRIVER)
+    for service in LIST_DRIVERS
     for report, query in (("ReportActiveElement", "QueryActiveElement"),
                           ("ReportTravelSpeed", "QueryTravelSpeed"))
 )
@@ -330,6 +356,9 @@ class _Mission:
     listed: bool
     waypoints: list[dict[str, float]]
     speed: float
+    #: the JAUS message each list element carries, and its fields per element
+    element: str = ""
+    element_fields: list[dict[str, float]] = field(default_factory=list)
     steps: list[tuple[str, dict[str, Any]]] = field(default_factory=list)
     request_id: int | None = None
     pending: str = ""
@@ -350,6 +379,28 @@ def waypoint_fields(wp: Mapping[str, Any], local: bool) -> dict[str, float]:
     tolerance = _clamp(wp.get("tolerance"), 0.0, 100.0)
     if tolerance > 0:
         fields["waypoint_tolerance"] = tolerance
+    return fields
+
+
+def segment_fields(seg: Mapping[str, Any], local: bool) -> dict[str, float]:
+    """SetGlobalPathSegment / SetLocalPathSegment fields of one ``PathSegment``: P2 is the
+    end point, P1 the control point (clamped; tolerance only when given)."""
+    if local:
+        fields = {f"p{n}_{axis}": _clamp(seg.get(prefix + axis), low, high)
+                  for n, prefix in ((1, "control_"), (2, ""))
+                  for axis, low, high in (("x", -100_000.0, 100_000.0),
+                                          ("y", -100_000.0, 100_000.0),
+                                          ("z", -10_000.0, 35_000.0))}
+    else:
+        fields = {f"p{n}_{name}": _clamp(seg.get(prefix + name), low, high)
+                  for n, prefix in ((1, "control_"), (2, ""))
+                  for name, low, high in (("latitude", -90.0, 90.0),
+                                          ("longitude", -180.0, 180.0),
+                                          ("altitude", -10_000.0, 35_000.0))}
+    fields["weighting_factor"] = _clamp(seg.get("weighting_factor"), 0.0, 500.0)
+    tolerance = _clamp(seg.get("tolerance"), 0.0, 100_000.0)
+    if tolerance > 0:
+        fields["path_tolerance"] = tolerance
     return fields
 
 
@@ -382,6 +433,8 @@ class WaypointMissions:
                            local, list_driver, True, waypoints,
                            float(sample.get("speed") or 0.0),
                            travel_speed=old.travel_speed if old else math.nan)
+        mission.element = "SetLocalWaypoint" if local else "SetGlobalWaypoint"
+        mission.element_fields = [waypoint_fields(w, local) for w in waypoints]
         if list_driver not in services:
             mission.service, mission.listed = single_driver, False
         if not waypoints or mission.service not in services:
@@ -400,6 +453,28 @@ class WaypointMissions:
                         mission.service)
         return [speed, self._waypoint(vehicle.vehicle_id, 0),
                 self._status(vehicle.vehicle_id, ctx)]
+
+    def on_segments(self, sample: Mapping[str, Any],
+                    ctx: TranslatorContext) -> list[Action]:
+        """A ``PathSegmentPlan``: the List Manager sequence to a path segment driver."""
+        vehicle = ctx.vehicle
+        if vehicle is None:
+            return []
+        local = _is_local(sample.get("frame", "GLOBAL"))
+        segments = [dict(s) for s in sample.get("segments") or ()]
+        service = LOCAL_SEGMENT_DRIVER if local else GLOBAL_SEGMENT_DRIVER
+        old = self.missions.get(vehicle.vehicle_id)
+        mission = _Mission(str(sample.get("plan_id", "")), str(sample.get("operator_id", "")),
+                           local, service, True, segments, float(sample.get("speed") or 0.0),
+                           "SetLocalPathSegment" if local else "SetGlobalPathSegment",
+                           [segment_fields(seg, local) for seg in segments],
+                           travel_speed=old.travel_speed if old else math.nan)
+        self.missions[vehicle.vehicle_id] = mission
+        if not segments or service not in {uri for uri, _ in vehicle.services}:
+            mission.state = "FAILED"
+            return [self._status(vehicle.vehicle_id, ctx)]
+        mission.steps = self._list_steps(mission, ctx.catalogue)
+        return [self._next_step(vehicle.vehicle_id), self._status(vehicle.vehicle_id, ctx)]
 
     @staticmethod
     def _speed(mission: _Mission) -> float:
@@ -466,7 +541,6 @@ class WaypointMissions:
     def _list_steps(mission: _Mission, catalogue: Any) -> list[tuple[str, dict[str, Any]]]:
         """The List Manager steps of a plan; each waypoint is encoded with the relay's
         catalogue (the context's), so a profile's own JSIDL definitions apply."""
-        message = "SetLocalWaypoint" if mission.local else "SetGlobalWaypoint"
         steps: list[tuple[str, dict[str, Any]]] = [
             ("DeleteElement", {"delete_element_list": [{"element_uid": ALL_ELEMENTS}]})]
         count = len(mission.waypoints)
@@ -477,7 +551,7 @@ class WaypointMissions:
                 "previous_uid": i,  # 0 before the first
                 "next_uid": i + 2 if i + 1 < batch.stop else 0,
                 "element_data": {"format": 0, "data": catalogue.encode(
-                    message, waypoint_fields(mission.waypoints[i], mission.local))},
+                    mission.element, mission.element_fields[i])},
             } for i in batch]
             steps.append(("SetElement", {"element_list": elements}))
         return steps
@@ -529,6 +603,189 @@ def _distance(target: Mapping[str, Any], pose: Mapping[str, Any], local: bool) -
     return _EARTH_RADIUS * math.hypot(dlat, dlon * math.cos(lat))
 
 
+# -- plan read-back (List Manager reports, drivers' current target -> VehiclePlan) -------
+
+#: element queries one component has outstanding at a time: a long list is read in
+#: batches, each asked for when the previous answers arrive, so it never floods a radio
+PLAN_QUERIES_IN_FLIGHT = 8
+#: presence vectors asking for every field of Report{Global,Local}Waypoint and
+#: Report{Global,Local}PathSegment
+ALL_WAYPOINT = 0x3F
+ALL_SEGMENT = 0x07
+PLAN_MESSAGES = ("ReportElementList", "ReportElement", "ReportElementCount",
+                 "ReportGlobalWaypoint", "ReportLocalWaypoint", "ReportGlobalPathSegment",
+                 "ReportLocalPathSegment")
+#: (report, query, driver, presence vector) of what a driver is going to
+_CURRENT_TARGETS = (
+    ("ReportGlobalWaypoint", "QueryGlobalWaypoint", GLOBAL_WAYPOINT_DRIVER, ALL_WAYPOINT),
+    ("ReportLocalWaypoint", "QueryLocalWaypoint", LOCAL_WAYPOINT_DRIVER, ALL_WAYPOINT),
+    ("ReportGlobalPathSegment", "QueryGlobalPathSegment", GLOBAL_SEGMENT_DRIVER, ALL_SEGMENT),
+    ("ReportLocalPathSegment", "QueryLocalPathSegment", LOCAL_SEGMENT_DRIVER, ALL_SEGMENT),
+)
+PLAN_REPORTS = (
+    *(ReportSpec("ReportElementList", "QueryElementList", service, rate=0.5, on_change=True)
+      for service in LIST_DRIVERS),
+    *(ReportSpec(report, query, service, {"presence_vector": pv}, rate=0.5, on_change=True)
+      for report, query, service, pv in _CURRENT_TARGETS),
+)
+#: element message -> (PlanElement member, message field) pairs
+_ELEMENT_MEMBERS: dict[str, tuple[tuple[str, str], ...]] = {
+    "SetGlobalWaypoint": (("latitude", "latitude"), ("longitude", "longitude"),
+                          ("altitude", "altitude"), ("tolerance", "waypoint_tolerance")),
+    "SetLocalWaypoint": (("x", "x"), ("y", "y"), ("z", "z"),
+                         ("tolerance", "waypoint_tolerance")),
+    "SetGlobalPathSegment": (
+        ("latitude", "p2_latitude"), ("longitude", "p2_longitude"),
+        ("altitude", "p2_altitude"), ("control_latitude", "p1_latitude"),
+        ("control_longitude", "p1_longitude"), ("control_altitude", "p1_altitude"),
+        ("weighting_factor", "weighting_factor"), ("tolerance", "path_tolerance")),
+    "SetLocalPathSegment": (
+        ("x", "p2_x"), ("y", "p2_y"), ("z", "p2_z"), ("control_x", "p1_x"),
+        ("control_y", "p1_y"), ("control_z", "p1_z"),
+        ("weighting_factor", "weighting_factor"), ("tolerance", "path_tolerance")),
+}
+#: the numeric members of a PlanElement (NaN unless the element's message sets them)
+_PLAN_NUMBERS = tuple(dict.fromkeys(m for pairs in _ELEMENT_MEMBERS.values() for m, _ in pairs))
+#: a driver's report of its current target reads like the Set message of an element
+_ELEMENT_MEMBERS["ReportGlobalWaypoint"] = _ELEMENT_MEMBERS["SetGlobalWaypoint"]
+_ELEMENT_MEMBERS["ReportLocalWaypoint"] = _ELEMENT_MEMBERS["SetLocalWaypoint"]
+_ELEMENT_MEMBERS["ReportGlobalPathSegment"] = _ELEMENT_MEMBERS["SetGlobalPathSegment"]
+_ELEMENT_MEMBERS["ReportLocalPathSegment"] = _ELEMENT_MEMBERS["SetLocalPathSegment"]
+
+
+def plan_element(message: str, fields: Mapping[str, Any], uid: int = 0, previous: int = 0,
+                 following: int = 0) -> dict[str, Any]:
+    """A ``PlanElement`` of a waypoint or path segment message's fields (NaN where the
+    message left a member out; ``message`` renamed to the Set message it stands for)."""
+    members = _ELEMENT_MEMBERS.get(message, ())
+    element: dict[str, Any] = {"uid": uid, "previous_uid": previous, "next_uid": following,
+                               "message": message.replace("Report", "Set", 1),
+                               **dict.fromkeys(_PLAN_NUMBERS, NAN)}
+    for member, jaus in members:
+        element[member] = number(fields.get(jaus))
+    return element
+
+
+@dataclass
+class _HeldPlan:
+    """What the relay knows of one component's list and current target."""
+
+    count: int = -1
+    order: list[int] = field(default_factory=list)
+    elements: dict[int, dict[str, Any]] = field(default_factory=dict)
+    asking: set[int] = field(default_factory=set)
+    stale: set[int] = field(default_factory=set)
+    current: dict[str, Any] = field(default_factory=dict)
+
+
+class PlanReadBack:
+    """The plan each component of a vehicle holds, read back from it -> ``VehiclePlan``.
+
+    The engine keeps ReportElementList flowing from every waypoint list and path segment
+    driver (an every-change event, or polling) and, likewise, each waypoint and path
+    segment driver's report of its current target. A list that changed is read element by
+    element with QueryElement, at most :data:`PLAN_QUERIES_IN_FLIGHT` at a time per
+    component; an element the list no longer holds is dropped. After the relay's own
+    plan was confirmed, and when an operator asks (``PlanQuery``), every element is read
+    again, so an element replaced under the same UID is seen too.
+    """
+
+    def __init__(self) -> None:
+        self.plans: dict[tuple[str, JausAddress], _HeldPlan] = {}
+
+    def on_message(self, name: str, fields: Mapping[str, Any],
+                   ctx: TranslatorContext) -> list[Action]:
+        if ctx.vehicle is None or ctx.source is None:
+            return []
+        key = (ctx.vehicle.vehicle_id, ctx.source)
+        plan = self.plans.setdefault(key, _HeldPlan())
+        actions: list[Action] = []
+        if name == "ReportElementList":
+            order = [int(e.get("element_uid", 0)) for e in fields.get("element_list") or ()]
+            plan.order, plan.count = order, len(order)
+            plan.elements = {u: e for u, e in plan.elements.items()
+                             if u in order and u not in plan.stale}
+            plan.stale.clear()
+            plan.asking.clear()
+        elif name == "ReportElement":
+            uid = int(fields.get("element_uid", 0))
+            plan.asking.discard(uid)
+            if uid not in plan.order:
+                return []  # an answer for an element removed meanwhile
+            plan.elements[uid] = self._element(fields, ctx.catalogue)
+        elif name == "ReportElementCount":
+            plan.count = int(fields.get("element_count", 0))
+            if plan.count != len(plan.order):
+                actions.append(follow_up_query(ctx.source, "QueryElementList"))
+        else:
+            plan.current = plan_element(name, fields)
+        actions += self._ask(ctx.source, plan)
+        actions.append(self._publish(key, plan, ctx))
+        return actions
+
+    def refresh(self, vehicle_id: str, component: JausAddress) -> list[Action]:
+        """Read ``component``'s whole list again (its elements may have been replaced)."""
+        plan = self.plans.setdefault((vehicle_id, component), _HeldPlan())
+        plan.stale = set(plan.elements)
+        return [follow_up_query(component, "QueryElementList")]
+
+    def on_query(self, sample: Mapping[str, Any], ctx: TranslatorContext) -> list[Action]:
+        """``PlanQuery``: count and list of every list driver, through the engine (the
+        operator holding the vehicle; throttled), every element read again."""
+        vehicle = ctx.vehicle
+        if vehicle is None:
+            return []
+        actions: list[Action] = []
+        operator = str(sample.get("operator_id", ""))
+        for service in LIST_DRIVERS:
+            for address, services in vehicle.components.items():
+                if any(uri == service for uri, _ in services):
+                    plan = self.plans.setdefault((vehicle.vehicle_id, address), _HeldPlan())
+                    plan.stale = set(plan.elements)
+                    for query in ("QueryElementCount", "QueryElementList"):
+                        actions.append(Command(vehicle.vehicle_id, operator,
+                                               f"plan_{query}_{address}", query, {}, service,
+                                               component=address))
+        return actions
+
+    @staticmethod
+    def _element(fields: Mapping[str, Any], catalogue: Any) -> dict[str, Any]:
+        uid = int(fields.get("element_uid", 0))
+        links = (uid, int(fields.get("previous_uid", 0)), int(fields.get("next_uid", 0)))
+        data = fields.get("element_data") or {}
+        message, inner = "", {}
+        if data.get("format") == 0 and catalogue is not None:
+            try:
+                decoded = catalogue.decode(bytes(data.get("data") or b""))
+            except DecodeError:  # the element is shown without its content
+                decoded = None
+            if decoded is not None and decoded.name is not None:
+                message, inner = decoded.name, decoded.fields or {}
+        element = plan_element(message, inner, *links)
+        element["message"] = message
+        return element
+
+    @staticmethod
+    def _ask(component: JausAddress, plan: _HeldPlan) -> list[Action]:
+        missing = [u for u in plan.order if u not in plan.elements and u not in plan.asking]
+        room = PLAN_QUERIES_IN_FLIGHT - len(plan.asking)
+        out: list[Action] = []
+        for uid in missing[:max(0, room)]:
+            plan.asking.add(uid)
+            out.append(follow_up_query(component, "QueryElement", {"element_uid": uid}))
+        return out
+
+    @staticmethod
+    def _publish(key: tuple[str, JausAddress], plan: _HeldPlan,
+                 ctx: TranslatorContext) -> Publish:
+        elements = [plan.elements[u] for u in plan.order if u in plan.elements]
+        return Publish("VehiclePlan", {
+            "vehicle_id": key[0], "component": str(key[1]), "element_count": plan.count,
+            "elements": elements,
+            "complete": len(elements) == len(plan.order) and plan.count == len(plan.order),
+            "current": plan.current or plan_element("", {}), "timestamp_ms": ctx.timestamp_ms})
+
+
 class MobilityTranslator(RuleTranslator):
     """Mobility service set (AS6009) <-> pose, velocity, driver and mission topics.
 
@@ -541,24 +798,26 @@ class MobilityTranslator(RuleTranslator):
     options_type = MobilityOptions
     report_rules = REPORT_RULES
     command_rules = COMMAND_RULES
-    extra_messages = MISSION_MESSAGES
-    extra_publishes = ("MissionStatus",)
+    extra_messages = (*MISSION_MESSAGES, *PLAN_MESSAGES)
+    extra_publishes = ("MissionStatus", "VehiclePlan")
 
     @classmethod
     def _derive(cls) -> None:
         super()._derive()
         cls.reports = (*(s for s in cls.reports if s.report not in OPTIONAL_REPORTS),
-                       *MISSION_REPORTS)
-        cls.subscribes = (*cls.subscribes, "WaypointPlan")
+                       *MISSION_REPORTS, *PLAN_REPORTS)
+        cls.subscribes = (*cls.subscribes, "WaypointPlan", "PathSegmentPlan", "PlanQuery")
         # Holding a vehicle means holding every component that can move it, waypoint
         # list drivers included, so nothing else drives it meanwhile.
         cls.controlled_services = tuple(dict.fromkeys((
             *cls.controlled_services, LOCAL_LIST_DRIVER, GLOBAL_LIST_DRIVER,
-            LOCAL_WAYPOINT_DRIVER, GLOBAL_WAYPOINT_DRIVER)))
+            LOCAL_WAYPOINT_DRIVER, GLOBAL_WAYPOINT_DRIVER, GLOBAL_SEGMENT_DRIVER,
+            LOCAL_SEGMENT_DRIVER)))
 
     def __init__(self) -> None:
         super().__init__()
         self.missions = WaypointMissions()
+        self.plans = PlanReadBack()
 
     def apply_options(self, options: MobilityOptions) -> None:
         """Ask for the optional reports the profile lists, too."""
@@ -574,8 +833,15 @@ class MobilityTranslator(RuleTranslator):
     ) -> list[Action]:
         if ctx.vehicle is None:
             return []
+        if name in PLAN_MESSAGES:
+            return self.plans.on_message(name, fields, ctx)
         if name in MISSION_MESSAGES:
-            return self.missions.on_message(name, fields, ctx)
+            actions = self.missions.on_message(name, fields, ctx)
+            if ctx.source is not None and any(
+                    isinstance(a, Command) and a.name == "ExecuteList" for a in actions):
+                # the relay's plan is complete on the vehicle: read all of it back
+                actions += self.plans.refresh(ctx.vehicle.vehicle_id, ctx.source)
+            return actions
         actions = super().on_message(name, fields, ctx)
         if name in ("ReportGlobalPose", "ReportLocalPose"):
             actions.extend(self.missions.on_pose(name, fields, ctx))
@@ -586,6 +852,10 @@ class MobilityTranslator(RuleTranslator):
     ) -> list[Action]:
         if topic == "WaypointPlan":
             return self.missions.on_plan(sample, ctx)
+        if topic == "PathSegmentPlan":
+            return self.missions.on_segments(sample, ctx)
+        if topic == "PlanQuery":
+            return self.plans.on_query(sample, ctx)
         return super().on_sample(topic, sample, ctx)
 
     def command(self, rule: Cmd, sample: Mapping[str, Any]) -> Command | None:
@@ -629,6 +899,40 @@ class MobilityTranslator(RuleTranslator):
             query = {"ReportActiveElement": "QueryActiveElement",
                      "ReportTravelSpeed": "QueryTravelSpeed"}.get(name, "")
             rows.append(row("jaus->dds", name, "MissionStatus", fields, query))
+        segment = [("p2_* (latitude/longitude/altitude | x/y/z)", "segments[]", "end point"),
+                   ("p1_*", "segments[].control_*", "control point"),
+                   ("weighting_factor", "segments[].weighting_factor", "0 = straight"),
+                   ("path_tolerance", "segments[].tolerance", "when > 0")]
+        for name, note in (("SetGlobalPathSegment", "list element data, frame GLOBAL"),
+                           ("SetLocalPathSegment", "list element data, frame LOCAL")):
+            rows.append(row("dds->jaus", name, "PathSegmentPlan", segment,
+                            doc=f"{note}; DeleteElement, SetElement, ExecuteList as for "
+                                "WaypointPlan, to the path segment driver"))
+        rows.append(row("dds->jaus", "QueryElementCount", "PlanQuery",
+                        [("(none)", "vehicle_id", "every list driver")],
+                        doc="with QueryElementList: read the plan back now (the holder)"))
+        rows.append(row("dds->jaus", "QueryElementList", "PlanQuery",
+                        [("(none)", "vehicle_id", "every list driver")],
+                        doc="every element is read again"))
+        element = [("element_uid / previous_uid / next_uid", "elements[].uid / previous_uid"
+                    " / next_uid", ""),
+                   ("element_data (Set*Waypoint | Set*PathSegment)", "elements[].message, "
+                    "position, control_*, weighting_factor, tolerance", "decoded")]
+        target = [("latitude/longitude/altitude | x/y/z | p2_*", "current.*", "NaN if absent"),
+                  ("p1_*, weighting_factor", "current.control_*, weighting_factor", ""),
+                  ("waypoint_tolerance | path_tolerance", "current.tolerance", "")]
+        for name, fields, query, doc in (
+                ("ReportElementList", [("element_list[].element_uid", "elements (order), "
+                                        "element_count", "")], "QueryElementList",
+                 "every-change event; a changed list is read with QueryElement, "
+                 f"{PLAN_QUERIES_IN_FLIGHT} at a time"),
+                ("ReportElement", element, "QueryElement", "asked for each listed element"),
+                ("ReportElementCount", [("element_count", "element_count",
+                                         "a different count re-reads the list")],
+                 "QueryElementCount", "asked for on PlanQuery"),
+                *((report, target, query, "the driver's current target; every-change event")
+                  for report, query, _, _ in _CURRENT_TARGETS)):
+            rows.append(row("jaus->dds", name, "VehiclePlan", fields, query, doc))
         return rows
 
 

@@ -7,9 +7,10 @@ every link URL and its options by its link plugin (nothing is opened), the trans
 it enables built with their ``[translators.NAME]`` tables, and what those tables name
 (generic mappings: message, query, service, field paths) and what vehicle discovery
 profiles name (hello or passive messages, hello field paths) looked up in the message
-catalogue with the profile's own JSIDL. Prints ``OK``, the kind and a one-line summary,
-or every problem (file, key path, problem) and exits with status 2. Reads the file and
-the files it references.
+catalogue with the profile's own JSIDL; ``[dds.security]`` files exist, parse, are signed
+by the configured CA and name the relay's certificate (with the ``openssl`` command).
+Prints ``OK``, the kind and a one-line summary, or every problem (file, key path,
+problem) and exits with status 2. Reads the file and the files it references.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from edge_vis.engine.announcements import discovery_problems
 from edge_vis.engine.manager import TranslationManager
 from edge_vis.errors import ConfigError, PluginError
 from edge_vis.schema import Reader
+from edge_vis.tools.deployment_keys import security_problems
 from edge_vis.tools.sim.profile import read_sim_profile
 
 NAME = "check"
@@ -103,10 +105,18 @@ def check_deployment(path: Path, data: Mapping[str, Any]) -> str:
     except ConfigError as exc:
         problems.extend(exc.problems)
     problems.extend(discovery_problems(profile.vehicles, catalogue, str(path)))
+    security = profile.dds.security
+    if security is not None:
+        problems.extend((str(path), key, problem)
+                        for key, problem in security_problems(security))
+        if profile.operators.any_operator:
+            problems.append((str(path), "access.any_operator", "with [dds.security] only "
+                             "listed [[operators]] are authenticated: set it to false"))
     if problems:
         raise ConfigError(problems)
     return (f"relay {profile.jaus_id}, {len(profile.links)} link(s), "
-            f"{len(profile.vehicles)} vehicle(s), {len(manager.translators)} translator(s)")
+            f"{len(profile.vehicles)} vehicle(s), {len(manager.translators)} translator(s)"
+            + (", DDS Security" if security is not None else ""))
 
 
 def check_vehicle(path: Path, data: Mapping[str, Any]) -> str:

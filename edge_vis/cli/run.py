@@ -5,6 +5,12 @@ With no ``--profile`` it runs the shipped default deployment profile; ``--link U
 no file at all. SIGINT/SIGTERM stop it cleanly: events cancelled, control released.
 SIGHUP re-reads the profile (:mod:`edge_vis.shell.reload`); under systemd the relay reports
 READY/WATCHDOG/STATUS/STOPPING (:mod:`edge_vis.shell.service`).
+
+It refuses to start half-secured: with ``[dds.security]`` every file must be there, parse
+and be signed by the configured CA (as ``edge-vis check`` checks), ``access.any_operator``
+must be false, and the Cyclone DDS binding must have DDS Security; without it, a Cyclone
+configuration (``CYCLONEDDS_URI``) that turns security on is refused too, because the relay
+would then join securely but not bind commands to the operators who sent them.
 """
 
 from __future__ import annotations
@@ -13,12 +19,12 @@ import argparse
 import asyncio
 import dataclasses
 import logging
+import os
 import signal
 from collections.abc import Callable
 from pathlib import Path
 
 from edge_vis.config import (
-    DdsProfile,
     LinkProfile,
     RelayProfile,
     link_problems,
@@ -76,8 +82,50 @@ def build_profile(args: argparse.Namespace) -> RelayProfile:
         except ValueError as exc:
             raise ConfigError([("--id", "", str(exc))]) from None
     if args.domain is not None:
-        changes["dds"] = DdsProfile(domain=args.domain, partitions=profile.dds.partitions)
+        changes["dds"] = dataclasses.replace(profile.dds, domain=args.domain)
     return dataclasses.replace(profile, **changes) if changes else profile
+
+
+def _cyclone_security_outside(uri: str) -> bool:
+    """True when the Cyclone configuration ``uri`` (XML text or file:// URLs) has a
+    ``<Security>`` element."""
+    texts = []
+    for part in uri.split(","):
+        part = part.strip()
+        if part.startswith("file://"):
+            try:
+                texts.append(Path(part.removeprefix("file://")).read_text(encoding="utf-8"))
+            except OSError:
+                continue
+        else:
+            texts.append(part)
+    return any("<Security" in text for text in texts)
+
+
+def refuse_half_secured(profile: RelayProfile, *, dds: bool = True) -> None:
+    """Raise ConfigError when the relay would run half-secured (see the module)."""
+    if not dds:
+        return
+    where = profile.source or "profile"
+    security = profile.dds.security
+    if security is None:
+        if _cyclone_security_outside(os.environ.get("CYCLONEDDS_URI", "")):
+            raise ConfigError([(where, "dds.security", "CYCLONEDDS_URI turns DDS Security "
+                                "on but the profile has no [dds.security]: commands would "
+                                "not be bound to their senders; configure it in the profile")])
+        return
+    from edge_vis.tools.deployment_keys import security_problems  # openssl, when secured
+
+    problems = [(where, key, problem) for key, problem in security_problems(security)]
+    if profile.operators.any_operator:
+        problems.append((where, "access.any_operator", "with [dds.security] only listed "
+                         "[[operators]] are authenticated: set it to false"))
+    if problems:
+        raise ConfigError(problems)
+    from edge_vis.dds.secure_qos import HOW_TO_SECURE, security_available
+
+    if not security_available():
+        raise ConfigError([(where, "dds.security", HOW_TO_SECURE)])
 
 
 def _mirror(args: argparse.Namespace) -> Mirror | None:
@@ -90,6 +138,7 @@ def run(args: argparse.Namespace) -> int:
     """Run until a signal (or ``--duration``)."""
     tune_allocator()  # before the relay allocates: days of running must not grow the heap
     profile = build_profile(args)
+    refuse_half_secured(profile, dds=not args.no_dds)
     runtime = Runtime(profile, publisher_factory=None if args.no_dds else "dds",
                       mirror=_mirror(args))
     asyncio.run(_main(runtime, args.duration, lambda: build_profile(args)))

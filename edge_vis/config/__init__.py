@@ -22,6 +22,7 @@ from edge_vis.config.deployment import (
     CommandProfile,
     ControlProfile,
     DdsProfile,
+    DdsSecurityProfile,
     DiscoveryProfile,
     EmergencyProfile,
     EventsProfile,
@@ -50,7 +51,8 @@ from edge_vis.config.vehicles import ComponentProfile, ServiceProfile, VehiclePr
 
 __all__ = [
     "DEFAULT_MINIMUM_SHARE", "DEFAULT_REPORT_PRIORITY", "AccessProfile", "BulkProfile",
-    "CommandProfile", "ComponentProfile", "ControlProfile", "DdsProfile", "DiscoveryProfile",
+    "CommandProfile", "ComponentProfile", "ControlProfile", "DdsProfile", "DdsSecurityProfile",
+    "DiscoveryProfile",
     "EmergencyProfile",
     "EventsProfile", "LimitsProfile", "LinkProfile", "OperatorEntry", "OperatorPolicy",
     "RelayProfile", "ReportRate", "ServiceProfile", "ServingProfile", "TimeProfile",

@@ -9,6 +9,7 @@ setting's type, default, range and TOML key is written here once. The file layou
     [relay]          jaus_id, authority, name           -> RelayProfile
     [links.NAME]     url, bandwidth, options, profile   -> LinkProfile (+ LinkSpec keys)
     [dds]            domain, partitions                 -> DdsProfile
+    [dds.security]   identity_ca, certificate, ...      -> DdsSecurityProfile
     [serving]        relay_name, preference, prefer, hysteresis, heartbeat, lease, settle
     [translators]    enabled, disabled, [translators.NAME] tables -> TranslatorSelection
     [discovery] [control] [events] [commands] [emergency] [limits] [bulk]
@@ -215,12 +216,43 @@ class EmergencyProfile:
     max_attempts: int = setting(20, ge=1)
 
 
+#: operators write commands in ``operator.<id>`` under DDS Security (see DdsSecurityProfile)
+OPERATOR_PARTITION_PREFIX = "operator."
+
+
+def operator_partition(operator_id: str) -> str:
+    """The DDS partition ``operator_id``'s permissions confine its command writes to."""
+    return f"{OPERATOR_PARTITION_PREFIX}{operator_id}"
+
+
+@dataclass(frozen=True, slots=True)
+class DdsSecurityProfile:
+    """``[dds.security]``: the relay's DDS Security files (``edge-vis security init``
+    writes them and prints this table).
+
+    With it the relay joins only authenticated, encrypted DDS, and reads each listed
+    operator's commands from that operator's own partition (``operator.<id>``), which
+    only that operator's signed permissions let it write to: a command whose
+    ``operator_id`` is not its partition's operator is refused and counted.
+    ``crl``: the deployment CA's revocation list (optional; needed to revoke).
+    """
+
+    identity_ca: Path = setting(doc="the CA certificate identities are checked against")
+    certificate: Path = setting(doc="the relay's identity certificate")
+    private_key: Path = setting(doc="the relay's private key")
+    permissions_ca: Path = setting(doc="the CA certificate the documents are signed by")
+    governance: Path = setting(doc="the signed governance document")
+    permissions: Path = setting(doc="the relay's signed permissions document")
+    crl: Path | None = None
+
+
 @dataclass(frozen=True, slots=True)
 class DdsProfile:
-    """The DDS domain and partitions the relay publishes in."""
+    """The DDS domain and partitions the relay publishes in, and its DDS Security."""
 
     domain: int = setting(0, ge=0, le=232)
     partitions: tuple[str, ...] = ()
+    security: DdsSecurityProfile | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -4,7 +4,9 @@ JAUS has no authentication, and neither does a DDS domain without DDS Security: 
 participant on the data model can publish a ``ControlRequest`` under any operator id.
 The allowlist is therefore a guard against mistakes and misconfigured stations (a
 training console on the live partition, a second operator with too high an authority),
-not against a hostile host on the network; that needs separate networks and partitions.
+not against a hostile host on the network; that needs separate networks and DDS Security
+(``[dds.security]``: each operator then writes only in its own partition, so the relay
+knows who sent a command).
 
 A deployment profile lists the operators allowed to request control, each with the
 highest authority it may ask with::

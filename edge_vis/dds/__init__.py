@@ -10,7 +10,9 @@ This package is the only part of the core that imports ``cyclonedds`` (install t
 * :mod:`~edge_vis.dds.qos` -- QoS per topic kind and why (no I/O);
 * :mod:`~edge_vis.dds.convert` -- checked dict <-> sample conversion (no I/O);
 * :mod:`~edge_vis.dds.bridge` -- :class:`DdsBridge`, the participant (I/O);
-* :mod:`~edge_vis.dds.cyclone_config` -- Cyclone XML such as :func:`loopback_config`.
+* :mod:`~edge_vis.dds.cyclone_config` -- Cyclone XML such as :func:`loopback_config`;
+* :mod:`~edge_vis.dds.secure_qos` -- DDS Security as participant QoS (no I/O);
+* :mod:`~edge_vis.dds.binding` -- what differs between the 11.x and 0.10.2 bindings.
 """
 
 from __future__ import annotations

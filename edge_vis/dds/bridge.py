@@ -23,6 +23,12 @@ Delivery of received samples, two ways:
 :meth:`DdsBridge.reader` gives operator-side tools (monitor, tests) a :class:`TopicReader`
 for any topic, with blocking ``take(timeout)`` and non-destructive ``read``.
 
+DDS Security (``security=``, :mod:`edge_vis.dds.secure_qos`): the participant joins with
+a certificate and signed permissions. ``writer_partitions`` puts the writers in other
+partitions than the readers (an operator writes commands in its own partition and reads
+the relay's), and ``subscribe(..., partition=P)`` reads topics in partition ``P`` alone,
+so the relay can tell whose partition a command came from.
+
 Threads: ``publish`` may be called from any one thread at a time; callbacks come from the
 delivery thread or the given loop.
 """
@@ -53,8 +59,17 @@ from cyclonedds.sub import DataReader, Subscriber
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
+from edge_vis.config.deployment import DdsSecurityProfile
+from edge_vis.dds.binding import (
+    MatchListener,
+    match_listener,
+    matched_publications,
+    matched_subscriptions,
+    unsigned_handle,
+)
 from edge_vis.dds.convert import Converter, converter_for, key_members
 from edge_vis.dds.qos import QosSettings, partition_qos, topic_qos
+from edge_vis.dds.secure_qos import HOW_TO_SECURE, participant_qos, security_available
 from edge_vis.dds.topics import TopicKind, TopicRegistry, TopicSpec
 from edge_vis.errors import EdgeVisError, LinkError
 
@@ -79,11 +94,10 @@ MAX_PRODUCTS = 256
 _RETIRED_KINDS = (TopicKind.PRODUCT, TopicKind.BULK)
 
 
-def _handle(value: int) -> int:
-    """An instance handle as the unsigned 64-bit number it is: the binding gives a sample's
-    ``publication_handle`` unsigned but ``get_matched_publications()`` signed, so about half
-    the writers (top bit set) would never be found matched and be taken for gone."""
-    return value & 0xFFFF_FFFF_FFFF_FFFF
+# an instance handle unsigned: the 11.x binding gives a sample's ``publication_handle``
+# unsigned but ``get_matched_publications()`` signed, so about half the writers (top bit
+# set) would never be found matched and be taken for gone
+_handle = unsigned_handle
 
 # Domains created with an explicit configuration live as long as the process: deleting a
 # Cyclone domain deletes every participant in it, including other bridges'.
@@ -103,6 +117,8 @@ class _Subscription:
     converter: Converter
     on_sample: OnSample | None
     loop: asyncio.AbstractEventLoop | None
+    partition: str | None = None
+    matches: MatchListener | None = None
 
 
 def _ensure_domain(domain_id: int, config: str) -> None:
@@ -131,8 +147,11 @@ class DdsBridge:
     synchronised clocks (NTP/PTP) between operator stations and the relay.
     ``max_products``: instances of each product/bulk topic (one per image) kept; past it
     the oldest is disposed and unregistered (counted as ``products_retired``).
+    ``security``: join with DDS Security (certificate, signed governance and permissions).
+    ``writer_partitions``: partitions of the writers when not ``partitions``.
 
-    Raises :class:`DdsError` if the participant cannot be created.
+    Raises :class:`DdsError` if the participant cannot be created (with ``security``: also
+    when its files are refused or the binding has no DDS Security).
     """
 
     def __init__(
@@ -145,6 +164,8 @@ class DdsBridge:
         config: str | None = None,
         max_command_age: float | None = None,
         max_products: int = MAX_PRODUCTS,
+        security: DdsSecurityProfile | None = None,
+        writer_partitions: Iterable[str] | None = None,
     ) -> None:
         if topics is None:
             registry = TopicRegistry.standard()
@@ -155,17 +176,30 @@ class DdsBridge:
         self.registry = registry
         self.domain_id = domain_id
         self.partitions = tuple(partitions)
+        self.writer_partitions = (self.partitions if writer_partitions is None
+                                  else tuple(writer_partitions))
+        self.secure = security is not None
         self.qos_settings = qos or QosSettings()
         self.max_command_age = max_command_age
         # Compile every converter now so a bad plugin type fails at start-up, not mid-run.
         self._converters = {spec.name: converter_for(spec.type) for spec in registry}
         if config is not None:
             _ensure_domain(domain_id, config)
+        if security is not None and not security_available():
+            raise DdsError(f"cannot join DDS domain {domain_id} securely: {HOW_TO_SECURE}")
         try:
-            self._participant = DomainParticipant(domain_id)
-            part_qos = partition_qos(self.partitions)
-            self._publisher = Publisher(self._participant, qos=part_qos)
-            self._subscriber = Subscriber(self._participant, qos=part_qos)
+            self._participant = DomainParticipant(
+                domain_id, qos=participant_qos(security) if security is not None else None)
+        except DDSException as exc:
+            what = " with DDS Security (certificate, key, governance or permissions " \
+                   "refused; see the log above)" if security is not None else ""
+            raise DdsError(f"cannot join DDS domain {domain_id}{what}: {exc}") from exc
+        try:
+            self._publisher = Publisher(self._participant,
+                                        qos=partition_qos(self.writer_partitions))
+            self._subscriber = Subscriber(self._participant, qos=partition_qos(self.partitions))
+            #: subscribers of single partitions (subscribe(partition=...))
+            self._partition_subscribers: dict[str, Subscriber] = {}
             self._guard = GuardCondition(self._participant)
             self._waitset = WaitSet(self._participant)
             self._waitset.attach(self._guard)
@@ -173,6 +207,7 @@ class DdsBridge:
             raise DdsError(f"cannot join DDS domain {domain_id}: {exc}") from exc
         self._topics: dict[str, Topic[Any]] = {}
         self._writers: dict[str, DataWriter[Any]] = {}
+        self._writer_matches: dict[str, MatchListener | None] = {}
         self._subscriptions: tuple[_Subscription, ...] = ()
         self._readers: list[TopicReader] = []
         self._lock = threading.Lock()
@@ -224,7 +259,12 @@ class DdsBridge:
             self._check_open()
             spec = self.registry.get(name)
             qos = topic_qos(spec.kind, self.qos_settings)
-            writer = DataWriter(self._publisher, self._topic(name), qos=qos)
+            listener = self._writer_matches[name] = match_listener()
+            try:
+                writer = DataWriter(self._publisher, self._topic(name), qos=qos,
+                                    listener=listener)
+            except DDSException as exc:  # e.g. NOT_ALLOWED_BY_SECURITY: not in permissions
+                raise DdsError(f"cannot create a writer of {name!r}: {exc}") from exc
             self._writers[name] = writer
         return writer
 
@@ -316,7 +356,8 @@ class DdsBridge:
 
     def matched_subscribers(self, topic: str) -> int:
         """How many readers (local or remote) currently match our writer of ``topic``."""
-        return len(self._writer(topic).get_matched_subscriptions())
+        writer = self._writer(topic)
+        return matched_subscriptions(writer, self._writer_matches.get(topic))
 
     def wait_for_subscribers(self, topic: str, count: int = 1, timeout: float = 5.0) -> bool:
         """Wait until ``count`` readers match our writer of ``topic``; False on timeout.
@@ -338,11 +379,14 @@ class DdsBridge:
         on_sample: OnSample | None = None,
         *,
         loop: asyncio.AbstractEventLoop | None = None,
+        partition: str | None = None,
     ) -> None:
         """Read ``topics`` (default: every inbound/command topic of the registry).
 
         With ``on_sample`` the delivery thread calls it as ``on_sample(topic, dict)``, in
         ``loop`` if given (via ``call_soon_threadsafe``). Without it, poll with :meth:`take`.
+        ``partition``: read these topics in that DDS partition only (not the bridge's),
+        each partition with readers of its own.
         """
         self._check_open()
         if loop is not None and on_sample is None:
@@ -351,22 +395,38 @@ class DdsBridge:
         specs = [self.registry.get(name) for name in names]  # KeyError before creating any
         added = []
         with self._lock:
-            subscribed = {s.spec.name for s in self._subscriptions}
+            subscribed = {s.spec.name for s in self._subscriptions if s.partition == partition}
             twice = sorted({n for n in names if n in subscribed or names.count(n) > 1})
             if twice:
                 raise ValueError(f"already subscribed: {', '.join(twice)}")
+            subscriber = self._subscriber_of(partition)
             for spec in specs:
                 qos = topic_qos(spec.kind, self.qos_settings)
-                reader = DataReader(self._subscriber, self._topic(spec.name), qos=qos)
+                matches = match_listener()
+                try:
+                    reader = DataReader(subscriber, self._topic(spec.name), qos=qos,
+                                        listener=matches)
+                except DDSException as exc:
+                    raise DdsError(f"cannot create a reader of {spec.name!r}: {exc}") from exc
                 condition = ReadCondition(reader, _ANY_SAMPLE)
                 converter = self._converter(spec.name)
-                added.append(_Subscription(spec, reader, condition, converter, on_sample, loop))
+                added.append(_Subscription(spec, reader, condition, converter, on_sample, loop,
+                                           partition, matches))
             self._subscriptions += tuple(added)
         if on_sample is not None:
             for sub in added:
                 self._waitset.attach(sub.condition)
             self._start_thread()
             self._guard.set(True)
+
+    def _subscriber_of(self, partition: str | None) -> Subscriber:
+        if partition is None:
+            return self._subscriber
+        subscriber = self._partition_subscribers.get(partition)
+        if subscriber is None:
+            subscriber = Subscriber(self._participant, qos=partition_qos((partition,)))
+            self._partition_subscribers[partition] = subscriber
+        return subscriber
 
     def watch_writers(self, on_gone: Callable[[str], object],
                       loop: asyncio.AbstractEventLoop | None = None) -> None:
@@ -386,7 +446,7 @@ class DdsBridge:
         matched: set[int] = set()
         for sub in self._subscriptions:
             try:
-                matched.update(_handle(h) for h in sub.reader.get_matched_publications())
+                matched.update(matched_publications(sub.reader, sub.matches))
             except DDSException:
                 return
         gone = {handle: op for handle, op in writers.items() if handle not in matched}
@@ -551,7 +611,8 @@ class DdsBridge:
             entities += [sub.condition, sub.reader]
         entities += list(self._writers.values())
         entities += list(self._topics.values())
-        entities += [self._guard, self._publisher, self._subscriber, self._participant]
+        entities += [self._guard, self._publisher, self._subscriber,
+                     *self._partition_subscribers.values(), self._participant]
         for entity in entities:
             _delete(entity)
         self._subscriptions = ()
@@ -625,11 +686,22 @@ class TopicReader:
             InstanceState.NotAliveNoWriters: "no_writers",
         }
         out = {}
-        for sample in self._reader.read(N=_BATCH):
-            data = getattr(sample, "key_sample", sample)
-            out[tuple(getattr(data, k) for k in keys)] = states.get(
-                sample.sample_info.instance_state, "unknown"
-            )
+        samples = self._reader.read(N=_BATCH)
+        # the 0.10.2 binding's invalid samples (a dispose, no writers) carry the key only
+        # serialised: find it from a valid sample of the same instance
+        key_of = {s.sample_info.instance_handle: tuple(getattr(s, k) for k in keys)
+                  for s in samples if s.sample_info.valid_data}
+        for sample in samples:
+            info = sample.sample_info
+            if info.valid_data:
+                key = key_of[info.instance_handle]
+            elif hasattr(sample, "key_sample"):
+                key = tuple(getattr(sample.key_sample, k) for k in keys)
+            elif info.instance_handle in key_of:
+                key = key_of[info.instance_handle]
+            else:
+                continue
+            out[key] = states.get(info.instance_state, "unknown")
         return out
 
     def close(self) -> None:

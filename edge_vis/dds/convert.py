@@ -46,7 +46,8 @@ _INT_RANGES: dict[str, tuple[int, int]] = {
     "uint32": (0, (1 << 32) - 1),
     "uint64": (0, (1 << 64) - 1),
 }
-_OCTETS = (idl_types.uint8, idl_types.byte)
+# types.byte is in the 11.x binding only (edge_vis.dds.binding)
+_OCTETS = (idl_types.uint8, getattr(idl_types, "byte", idl_types.uint8))
 _MISSING = object()
 
 

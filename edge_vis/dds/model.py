@@ -103,6 +103,22 @@ class MissionState(IdlEnum, typename="edge_vis::MissionState"):
     MISSION_FAILED = 6
 
 
+class SpoolerAction(IdlEnum, typename="edge_vis::SpoolerAction"):
+    """What a :class:`MissionSpoolCommand` asks a vehicle's Mission Spooler to do
+    (prefixed; dicts may leave the prefix out, ``"RUN"``)."""
+
+    SPOOLER_SPOOL = 0
+    SPOOLER_RUN = 1
+    SPOOLER_PAUSE = 2
+    SPOOLER_RESUME = 3
+    SPOOLER_ABORT = 4
+    SPOOLER_INSERT_MESSAGES = 5
+    SPOOLER_REMOVE_MESSAGES = 6
+    SPOOLER_INSERT_TASK = 7
+    SPOOLER_REMOVE_TASK = 8
+    SPOOLER_QUERY_PLAN = 9
+
+
 class HealthLevel(IdlEnum, typename="edge_vis::HealthLevel"):
     """Summary health of a vehicle."""
 
@@ -541,6 +557,183 @@ class WaypointPlan(IdlStruct, typename="edge_vis::WaypointPlan"):
     waypoints: sequence[Waypoint]
     frame: Frame = Frame.GLOBAL
     speed: float64 = 0.0
+
+
+# -- plan read-back, path segments, mission spooler ----------------------------------------
+
+
+@dataclass
+class PlanElement(IdlStruct, typename="edge_vis::PlanElement"):
+    """One element a vehicle holds: a waypoint, or a path segment ending at the position
+    with ``control_*`` its control point (P1) and ``weighting_factor`` (0 = straight).
+    ``message`` names the JAUS message the element carries (``SetGlobalWaypoint``...;
+    ``""`` when it is not one the relay knows). Unset members are NaN."""
+
+    uid: uint16 = 0
+    previous_uid: uint16 = 0
+    next_uid: uint16 = 0
+    message: str = ""
+    latitude: float64 = NAN
+    longitude: float64 = NAN
+    altitude: float64 = NAN
+    x: float64 = NAN
+    y: float64 = NAN
+    z: float64 = NAN
+    tolerance: float64 = NAN
+    control_latitude: float64 = NAN
+    control_longitude: float64 = NAN
+    control_altitude: float64 = NAN
+    control_x: float64 = NAN
+    control_y: float64 = NAN
+    control_z: float64 = NAN
+    weighting_factor: float64 = NAN
+
+
+@dataclass
+class VehiclePlan(IdlStruct, typename="edge_vis::VehiclePlan"):
+    """The plan one component of a vehicle actually holds, read back from it: its List
+    Manager's elements in list order (``complete`` once every listed element was read),
+    and ``current``, the waypoint or path segment its driver reports it is going to."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    component: str
+    key("component")
+    element_count: int32 = -1
+    elements: sequence[PlanElement] = field(default_factory=list)
+    complete: bool = False
+    current: PlanElement = field(default_factory=PlanElement)
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class PlanQuery(IdlStruct, typename="edge_vis::PlanQuery"):
+    """Read the plan of a vehicle again now (the operator holding it)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+
+
+@dataclass
+class PathSegment(IdlStruct, typename="edge_vis::PathSegment"):
+    """A path segment ending at latitude/longitude/altitude (GLOBAL) or x/y/z (LOCAL),
+    bent towards its control point by ``weighting_factor`` (0 = a straight line)."""
+
+    latitude: float64 = 0.0
+    longitude: float64 = 0.0
+    altitude: float64 = 0.0
+    x: float64 = 0.0
+    y: float64 = 0.0
+    z: float64 = 0.0
+    control_latitude: float64 = 0.0
+    control_longitude: float64 = 0.0
+    control_altitude: float64 = 0.0
+    control_x: float64 = 0.0
+    control_y: float64 = 0.0
+    control_z: float64 = 0.0
+    weighting_factor: float64 = 0.0
+    tolerance: float64 = 0.0
+
+
+@dataclass
+class PathSegmentPlan(IdlStruct, typename="edge_vis::PathSegmentPlan"):
+    """Path segments to drive in order at ``speed`` m/s (0 = the vehicle's default)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    plan_id: str
+    segments: sequence[PathSegment]
+    frame: Frame = Frame.GLOBAL
+    speed: float64 = 0.0
+
+
+@dataclass
+class MissionMessage(IdlStruct, typename="edge_vis::MissionMessage"):
+    """One JAUS message of a spooled mission task: ``message`` by name with its fields as
+    a JSON object (``fields_json``), for component ``destination`` (``S.N.C``; empty:
+    the spooler's own subsystem, node and component 1). ``blocking``: the spooler waits for
+    it to finish before the next one."""
+
+    uid: uint16
+    message: str
+    fields_json: str = "{}"
+    destination: str = ""
+    blocking: bool = False
+
+
+@dataclass
+class MissionTask(IdlStruct, typename="edge_vis::MissionTask"):
+    """A task of a spooled mission: its messages, and its sub-tasks as indices into the
+    mission's task list."""
+
+    task_id: uint16
+    messages: sequence[MissionMessage] = field(default_factory=list)
+    child_tasks: sequence[uint16] = field(default_factory=list)
+
+
+@dataclass
+class MissionSpoolCommand(IdlStruct, typename="edge_vis::MissionSpoolCommand"):
+    """An operator's order to a vehicle's Mission Spooler (see :class:`SpoolerAction`):
+    SPOOL sends ``tasks`` as mission ``mission_id``; RUN, PAUSE, RESUME, ABORT act on it
+    (``task_id``/``message_uid`` narrow RUN and PAUSE when non-zero); INSERT_MESSAGES puts
+    the first task's messages before or after (``after``) ``message_uid`` of ``task_id``;
+    REMOVE_MESSAGES removes ``uids`` from ``task_id``; INSERT_TASK puts the first task
+    before or after ``task_id`` under ``parent_task_id``; REMOVE_TASK removes ``uids``
+    (task IDs) under ``task_id``; QUERY_PLAN reads the stored plan of ``mission_id``."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    action: SpoolerAction
+    mission_id: uint16 = 0
+    task_id: uint16 = 0
+    message_uid: uint16 = 0
+    after: bool = False
+    parent_task_id: uint16 = 0
+    tasks: sequence[MissionTask] = field(default_factory=list)
+    uids: sequence[uint16] = field(default_factory=list)
+
+
+@dataclass
+class SpoolerStatus(IdlStruct, typename="edge_vis::SpoolerStatus"):
+    """What a vehicle's Mission Spooler says of a mission, task or message (``scope``
+    MISSION, TASK or MESSAGE, ``id`` its ID): ``status`` INIT, RUNNING, PAUSING, PAUSED,
+    ABORTING, ABORTED, BLOCKED or FINISHED; ``detail`` the secondary status."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    scope: str
+    key("scope")
+    id: uint16 = 0
+    status: str = ""
+    detail: str = ""
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class StoredMission(IdlStruct, typename="edge_vis::StoredMission"):
+    """A mission a spooler holds and the JAUS address (``S.N.C``) of who spooled it."""
+
+    mission_id: uint16
+    creator: str = ""
+
+
+@dataclass
+class SpoolerMissions(IdlStruct, typename="edge_vis::SpoolerMissions"):
+    """The missions a vehicle's spooler holds (ReportStoredMissions), the plan of the last
+    one read back (``plan_mission_id``, ``plan``: its tasks as the vehicle holds them) and
+    its spooling preference (``preference``, NaN until reported)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    missions: sequence[StoredMission] = field(default_factory=list)
+    plan_mission_id: int32 = -1
+    plan_source: str = ""
+    plan: sequence[MissionTask] = field(default_factory=list)
+    preference: float64 = NAN
+    timestamp_ms: int64 = 0
 
 
 # --------------------------------------------------------------------------- image products
@@ -1029,7 +1222,8 @@ class GeomagneticProperty(IdlStruct, typename="edge_vis::GeomagneticProperty"):
 @dataclass
 class PoseCommand(IdlStruct, typename="edge_vis::PoseCommand"):
     """Reset a pose sensor's estimate: GLOBAL (deg, m) or LOCAL (m) position, attitude (rad),
-    and their RMS uncertainty; an absent member is left unchanged."""
+    and their RMS uncertainty; an absent member is left unchanged. ``magnetic_variation``
+    (rad, east positive), when given, sets the global pose sensor's geomagnetic property."""
 
     vehicle_id: str
     key("vehicle_id")
@@ -1046,6 +1240,7 @@ class PoseCommand(IdlStruct, typename="edge_vis::PoseCommand"):
     yaw: Optional[float64] = None  # noqa: UP045
     position_rms: Optional[float64] = None  # noqa: UP045
     attitude_rms: Optional[float64] = None  # noqa: UP045
+    magnetic_variation: Optional[float64] = None  # noqa: UP045 (rad, east positive)
 
 
 STRUCTS: tuple[type[IdlStruct], ...] = (
@@ -1061,6 +1256,12 @@ STRUCTS: tuple[type[IdlStruct], ...] = (
     VelocityCommand,
     WaypointPlan,
     MissionStatus,
+    VehiclePlan,
+    PlanQuery,
+    PathSegmentPlan,
+    MissionSpoolCommand,
+    SpoolerStatus,
+    SpoolerMissions,
     LinkStatus,
     RelayStatus,
     HealthStatus,

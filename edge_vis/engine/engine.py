@@ -283,6 +283,26 @@ class Engine:
         """Which vehicles this relay serves, and its peers (with ``arbitrate``)."""
         return self._duty
 
+    def refuse_sample(self, topic: str, sample: Mapping[str, Any], reason: str,
+                      now: float) -> None:
+        """A DDS command the shell refused before it reached the rules (its claimed
+        ``operator_id`` is not the sender DDS Security proved): counted, and kept as the
+        vehicle's ``last_rejection`` in ``ControlStatus`` so the operators see it."""
+        if not self._finder.started:
+            self._finder.start(now)
+        state = self._state
+        if state.done:
+            return
+        state.counters["samples_refused_sender"] += 1
+        vehicle = state.by_id.get(str(sample.get("vehicle_id", "")))
+        if vehicle is not None:
+            arbitration = vehicle.arbitration
+            new = arbitration.last_rejection != f"{topic}: {reason}"
+            arbitration.reject(f"{topic}: {reason}")
+            if new:  # a flood of refusals must not become a flood of ControlStatus
+                self._changed(vehicle, "control", now)
+        self._timer_pass.run(now)
+
     def operator_lost(self, operator_id: str, now: float) -> None:
         """Every DDS writer of ``operator_id`` is gone (its station vanished): with the
         profile's ``emergency.on_operator_lost`` the vehicles it held are stopped."""

@@ -21,7 +21,7 @@ Control, events, throttling and the dead-man stop are the engine's: a translator
 
 from __future__ import annotations
 
-from edge_vis.errors import ConfigError
+from edge_vis.errors import ConfigError, DecodeError, EncodeError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.actions import (
     Action,
@@ -31,6 +31,7 @@ from edge_vis.kit.actions import (
     Publish,
     SendMessage,
     ShutdownComplete,
+    follow_up_query,
 )
 from edge_vis.kit.contract import (
     STATUS_NAMES,
@@ -74,12 +75,55 @@ from edge_vis.kit.rules import (
 from edge_vis.schema import read_table, setting
 
 __all__ = [
-    "CHUNK_BYTES", "NAN", "STATUS_NAMES", "Action", "Build", "ClockView", "Command", "CommandRule",
-    "Computed", "ConfigError", "Const", "DeclareVehicle", "Each", "EmergencyRequest", "From",
-    "HolderView", "JausAddress", "Publish", "Put",
-    "PutEach", "ReportRule", "ReportSpec", "RuleTranslator", "SendMessage", "ShutdownComplete",
-    "Spec", "TopicDecl", "Translator", "TranslatorContext", "VehicleView", "clamp", "code_of",
-    "declarations", "derive_vehicle_id", "describe_rules", "extract", "flags", "get_path",
-    "image_chunks", "label", "number", "path_problem", "publish_image", "put", "read_table",
-    "resolve_path", "set_path", "setting",
+    "CHUNK_BYTES",
+    "NAN",
+    "STATUS_NAMES",
+    "Action",
+    "Build",
+    "ClockView",
+    "Command",
+    "CommandRule",
+    "Computed",
+    "ConfigError",
+    "Const",
+    "DeclareVehicle",
+    "DecodeError",
+    "Each",
+    "EmergencyRequest",
+    "EncodeError",
+    "From",
+    "HolderView",
+    "JausAddress",
+    "Publish",
+    "Put",
+    "PutEach",
+    "ReportRule",
+    "ReportSpec",
+    "RuleTranslator",
+    "SendMessage",
+    "ShutdownComplete",
+    "Spec",
+    "TopicDecl",
+    "Translator",
+    "TranslatorContext",
+    "VehicleView",
+    "clamp",
+    "code_of",
+    "declarations",
+    "derive_vehicle_id",
+    "describe_rules",
+    "extract",
+    "flags",
+    "follow_up_query",
+    "get_path",
+    "image_chunks",
+    "label",
+    "number",
+    "path_problem",
+    "publish_image",
+    "put",
+    "read_table",
+    "resolve_path",
+    "set_path",
+    "setting",
 ]

@@ -13,7 +13,10 @@ The engine never performs anything itself: it returns these from
 Translators return :class:`Publish`, :class:`Command`, :class:`DeclareVehicle` and
 :class:`EmergencyRequest`; the engine turns a ``Command`` into a ``SendMessage`` only when
 the operator holds control, the vehicle's component is controlled and ready, and the rate
-and lifespan allow it.
+and lifespan allow it. A translator returns a ``SendMessage`` itself only for a follow-up
+query a report calls for (the elements of a list that changed, the plan of a new mission),
+made by :func:`follow_up_query`: a query needs no control, and the link paces and queues
+it like the engine's own queries.
 """
 
 from __future__ import annotations
@@ -137,6 +140,13 @@ class Withdraw:
     (emitted by the engine, :mod:`edge_vis.engine.duty`; translators do not return it)."""
 
     vehicle_id: str
+
+
+def follow_up_query(destination: JausAddress, name: str,
+                    fields: Mapping[str, Any] | None = None) -> SendMessage:
+    """A query a report calls for (see the module docstring), to ``destination``: no
+    control needed, queued and paced on the link as telemetry like the engine's queries."""
+    return SendMessage(destination, name, dict(fields or {}), traffic_class="telemetry")
 
 
 Action = Union[SendMessage, Publish, Command, DeclareVehicle, EmergencyRequest,  # noqa: UP007

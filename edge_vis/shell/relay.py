@@ -19,6 +19,7 @@ raised; a failing link is reported and the relay keeps running.
 from __future__ import annotations
 
 import asyncio
+import functools
 import json
 import logging
 import time
@@ -31,9 +32,10 @@ from edge_vis.bandwidth.demands import FleetPlanner
 from edge_vis.bandwidth.linkspec import DEFAULT_PRIORITIES, LinkSpec
 from edge_vis.catalogue import Catalogue
 from edge_vis.config import BulkProfile, LinkProfile, RelayProfile
+from edge_vis.config.deployment import operator_partition
 from edge_vis.engine.announcements import verify_discovery
 from edge_vis.engine.engine import Engine
-from edge_vis.errors import CodecError, EdgeVisError, EncodeError
+from edge_vis.errors import CodecError, ConfigError, EdgeVisError, EncodeError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import Broadcast, Packet
 from edge_vis.kit.actions import (
@@ -201,17 +203,31 @@ class Runtime:
         registry = TopicRegistry.standard()
         for translator in self.engine.manager.translators:
             registry.register_all(translator.topic_types, owner=translator.name)
-        bridge = DdsBridge(self.profile.dds.domain, self.profile.dds.partitions, registry,
-                           max_products=self.profile.limits.max_products)
+        dds = self.profile.dds
+        if dds.security is not None and self.profile.operators.any_operator:
+            raise ConfigError([(self.profile.source, "access.any_operator",
+                                "with [dds.security] only the listed [[operators]] can be "
+                                "authenticated: set access.any_operator = false")])
+        bridge = DdsBridge(dds.domain, dds.partitions, registry,
+                           max_products=self.profile.limits.max_products,
+                           security=dds.security)
         published, subscribed = self.engine.manager.topics()
         bridge.open_writers([*published, "LinkStatus", "RelayStatus"])
         bridge.subscribe(["RelayStatus"], self._on_relay_status, loop=self._loop)
         subscribed = [t for t in dict.fromkeys(subscribed)]
         if subscribed:
             bridge.watch_writers(self._on_operator_lost, loop=self._loop)
-            bridge.subscribe(subscribed, self._on_sample, loop=self._loop)
-        log.info("DDS domain %d, partitions %s: publishing %s; subscribed to %s",
-                 self.profile.dds.domain, list(self.profile.dds.partitions) or ["(default)"],
+            if dds.security is None:
+                bridge.subscribe(subscribed, self._on_sample, loop=self._loop)
+            else:  # each operator's own partition: where a command arrives proves its sender
+                for operator in self.profile.operators.operators:
+                    bridge.subscribe(subscribed, functools.partial(self._on_sample_from,
+                                                                   operator),
+                                     loop=self._loop, partition=operator_partition(operator))
+        log.info("DDS domain %d, partitions %s%s: publishing %s; subscribed to %s",
+                 dds.domain, list(dds.partitions) or ["(default)"],
+                 ", DDS Security on, commands from each operator's partition"
+                 if dds.security is not None else "",
                  ", ".join(published), ", ".join(subscribed))
         return bridge
 
@@ -314,6 +330,21 @@ class Runtime:
             return
         now = self._loop.time()
         self.engine.receive_relay_status(sample, now)
+        self._pump_engine(now)
+
+    def _on_sample_from(self, sender: str, topic: str, sample: dict[str, Any]) -> None:
+        """A command read in ``sender``'s partition, which only ``sender``'s signed
+        permissions may write to: its ``operator_id`` must be ``sender``."""
+        claimed = str(sample.get("operator_id", ""))
+        if claimed == sender:
+            self._on_sample(topic, sample)
+            return
+        assert self._loop is not None and self.engine is not None
+        now = self._loop.time()
+        self.counters["commands refused: operator_id is not the sender"] += 1
+        reason = f"operator_id {claimed!r} refused: sent by {sender}"
+        self._log.warning("impersonation", now, "%s %s", topic, reason)
+        self.engine.refuse_sample(topic, sample, reason, now)
         self._pump_engine(now)
 
     def _on_operator_lost(self, operator_id: str) -> None:

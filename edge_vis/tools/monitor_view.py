@@ -23,6 +23,7 @@ READ_TOPICS: tuple[str, ...] = (
     "VehicleIdentification", "VehicleStatus", "GlobalPose", "LocalPose", "Velocity",
     "ControlStatus", "MissionStatus", "LinkStatus", "RangeScan", "ImageProduct",
     "EnvironmentalData", "TransferStatus", "VehicleClock",
+    "VehiclePlan", "SpoolerStatus",
 )
 #: command topics the monitor writes
 WRITE_TOPICS: tuple[str, ...] = ("ControlRequest", "WrenchEffortCommand", "WaypointPlan",
@@ -83,6 +84,9 @@ class VehicleRow:
     clock_offset: float | None = None
     mission: str = ""
     active_waypoint: int = -1
+    #: the plan the vehicle holds (elements read back / listed) and its spooler's mission
+    plan: str = ""
+    spooler: str = ""
     last_image: str = ""
     last_image_size: int = 0
     images: int = 0
@@ -195,6 +199,20 @@ class FleetView:
         row.mission = str(s.get("state", "")).removeprefix("MISSION_")
         row.active_waypoint = int(s.get("active_waypoint", -1))
 
+    def _on_VehiclePlan(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        elements = s.get("elements") or []
+        kinds = {"waypoints" if "Waypoint" in m else "segments" if "PathSegment" in m
+                 else "elements" for e in elements if (m := str(e.get("message", "")))}
+        what = kinds.pop() if len(kinds) == 1 else "elements"
+        count = int(s.get("element_count", -1))
+        held = f"{len(elements)}/{count}" if count >= 0 and not s.get("complete") \
+            else str(len(elements))
+        row.plan = f"{held} {what}" if elements or count > 0 else "empty"
+
+    def _on_SpoolerStatus(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        if s.get("scope") == "MISSION":
+            row.spooler = f"{s.get('id', 0)} {str(s.get('status', '')).lower()}"
+
     def _on_ImageProduct(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
         row.images += 1
         row.last_image = s.get("file_name", "") or str(s.get("image_id", ""))
@@ -255,6 +273,10 @@ class FleetView:
             if row.mission and row.mission != "IDLE":
                 waypoint = f" wp {row.active_waypoint}" if row.active_waypoint >= 0 else ""
                 extra.append(f"mission {row.mission.lower()}{waypoint}")
+            if row.plan:
+                extra.append(f"holds {row.plan}")
+            if row.spooler:
+                extra.append(f"spooled mission {row.spooler}")
             if row.last_image:
                 size = f" ({row.last_image_size // 1024} KiB)" if row.last_image_size else ""
                 extra.append(f"image {row.last_image}{size}")

@@ -33,7 +33,8 @@ def test_discovery_answers_like_a_subsystem(wire: Wire) -> None:
     uris = [s["uri"] for n in listed["subsystem_list"][0]["node_list"]
             for c in n["component_list"] for s in c["service_list"]]
     assert uris == ["urn:jaus:jss:mobility:PrimitiveDriver",
-                    "urn:jaus:jss:mobility:GlobalWaypointListDriver"]
+                    "urn:jaus:jss:mobility:GlobalWaypointListDriver",
+                    "urn:jaus:jss:mobility:GlobalPathSegmentDriver"]
     # a component that does not offer Discovery stays silent, as real ones do
     assert wire.send("QueryIdentification", {"query_type": 2}, to=PLATFORM) == []
 

@@ -145,7 +145,7 @@ def test_paths_and_names() -> None:
 # -- removing any one translator leaves the others working -------------------------------
 
 ALL = ("core", "emergency", "environment", "generic", "iop", "management", "manipulator",
-       "mobility", "ugv", "uuv")
+       "mission_spooler", "mobility", "ugv", "uuv")
 
 
 def _representative(name: str) -> tuple[str, dict[str, Any], str]:
@@ -177,7 +177,8 @@ def test_any_one_translator_can_be_removed(removed: str) -> None:
     for tr in manager.translators:
         for rule in getattr(tr, "command_rules", ())[:1]:
             sample = command_sample(rule, values=[0.5, 0.5], state="DRIVE",
-                                    platform_state="Operational")
+                                    platform_state="Operational",
+                                    tasks=[{"task_id": 1, "messages": []}])
             assert any(isinstance(a, Command)
                        for a in manager.on_sample(rule.topic, sample, CTX)), rule.message
     if "mobility" in names:

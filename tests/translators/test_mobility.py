@@ -111,8 +111,9 @@ def test_wrench_without_any_effort_is_ignored() -> None:
 def test_wanted_reports_query_all_fields_and_encode() -> None:
     for spec in MobilityTranslator.reports:
         payload = CAT.encode(spec.query, spec.query_fields)
-        # pose, velocity, acceleration: every field; the waypoint list drivers' queries
-        # (QueryActiveElement, QueryTravelSpeed) have no fields
-        expected = {"presence_vector": 0x1FF} if spec.query_fields else {}
+        # pose, velocity, acceleration, waypoints, path segments: every optional field of
+        # the report; the list drivers' queries (QueryActiveElement...) have no fields
+        optional = [f for f in CAT.by_name(spec.report).body.fields if f.optional]
+        expected = {"presence_vector": (1 << len(optional)) - 1} if spec.query_fields else {}
         assert CAT.decode(payload).fields == expected
         assert spec.report in MobilityTranslator.messages

@@ -185,6 +185,8 @@ COMMAND_CASES = [
     pytest.param("PoseCommand", {"frame": "LOCAL", "x": 150_000.0, "y": -3.5, "yaw": 0.5},
                  "SetLocalPose", {"x": 100_000.0, "y": -3.5, "yaw": 0.5}, 1e-3,
                  id="local-pose-reset"),
+    pytest.param("PoseCommand", {"magnetic_variation": 4.0}, "SetGeomagneticProperty",
+                 {"magnetic_variation": 4.0 - 2 * PI}, 1e-3, id="magnetic-variation-wrapped"),
 ]
 
 
@@ -200,6 +202,17 @@ def test_sample_to_command(topic: str, members: dict[str, Any], message: str,
     decoded = CAT.decode(CAT.encode(message, command.fields)).fields or {}
     for name, want in fields.items():
         assert _close(decoded[name], want, tol), (name, decoded[name], want)
+
+
+def test_a_pose_reset_with_magnetic_variation_sets_both() -> None:
+    sample = {"vehicle_id": "veh1", "operator_id": "op1", "frame": "GLOBAL",
+              "latitude": 10.0, "magnetic_variation": -0.2}
+    pose, geomagnetic = MobilityTranslator().on_sample("PoseCommand", sample, CTX)
+    assert (pose.name, pose.fields) == ("SetGlobalPose", {"latitude": 10.0})
+    assert geomagnetic.name == "SetGeomagneticProperty"
+    assert geomagnetic.service == MOB + "GlobalPoseSensor" and geomagnetic.stop is None
+    assert geomagnetic.fields == {"magnetic_variation": pytest.approx(-0.2)}
+    assert pose.kind != geomagnetic.kind  # neither replaces the other in the throttle
 
 
 def test_vector_commands_are_motion_commands_that_stop_at_speed_zero() -> None:

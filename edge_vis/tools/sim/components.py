@@ -30,6 +30,8 @@ LOCAL_POSE = MOBILITY + "LocalPoseSensor"
 VELOCITY_STATE = MOBILITY + "VelocityStateSensor"
 PRIMITIVE_DRIVER = MOBILITY + "PrimitiveDriver"
 WAYPOINT_LIST_DRIVER = MOBILITY + "GlobalWaypointListDriver"
+PATH_SEGMENT_DRIVER = MOBILITY + "GlobalPathSegmentDriver"
+MISSION_SPOOLER = "urn:jaus:jss:missionSpooler:MissionSpooler"
 RANGE_SENSOR = ENV + "RangeSensor"
 VISUAL_SENSOR = ENV + "VisualSensor"
 STILL_IMAGE = ENV + "StillImage"
@@ -57,6 +59,7 @@ UGV_LAYOUT: tuple[ComponentSpec, ...] = (
     ComponentSpec(2, "Platform", (
         TRANSPORT, EVENTS, ACCESS_CONTROL, MANAGEMENT, LIVENESS, TIME, GLOBAL_POSE,
         LOCAL_POSE, VELOCITY_STATE, PRIMITIVE_DRIVER, LIST_MANAGER, WAYPOINT_LIST_DRIVER,
+        PATH_SEGMENT_DRIVER, MISSION_SPOOLER,
     )),
     ComponentSpec(3, "Sensors", (
         TRANSPORT, EVENTS, ACCESS_CONTROL, RANGE_SENSOR, VISUAL_SENSOR, STILL_IMAGE,

@@ -49,14 +49,14 @@ from edge_vis.catalogue import Catalogue, Message, default_catalogue
 from edge_vis.errors import DecodeError, EncodeError
 from edge_vis.jaus.address import BROADCAST, JausAddress
 from edge_vis.tools.sim import components as svc
-from edge_vis.tools.sim import scripted, self_report
+from edge_vis.tools.sim import scripted, self_report, spooling
 from edge_vis.tools.sim.components import ComponentSpec
 from edge_vis.tools.sim.events import EVERY_CHANGE, PERIODIC, EventTable, Subscription
 from edge_vis.tools.sim.kinematics import Motion, clamp
 from edge_vis.tools.sim.outputs import Action, Restarted, Send
 from edge_vis.tools.sim.profile import VehicleSpec
 from edge_vis.tools.sim.sensors import Sensors
-from edge_vis.tools.sim.waypoints import SET_GLOBAL_WAYPOINT, WaypointList
+from edge_vis.tools.sim.waypoints import WaypointList, target_of
 
 log = logging.getLogger(__name__)
 
@@ -134,6 +134,7 @@ class SimVehicle:
                              max_yaw_rate=spec.max_yaw_rate)
         self.effort: dict[str, float] = {}
         self.waypoints = WaypointList()
+        self.spooler = spooling.Spooler()
         self.counters: Counter[str] = Counter()
         self.reboots = 0
         self._physics_time = start
@@ -285,6 +286,7 @@ class SimVehicle:
         while self._physics_time + DT <= now:
             self._physics_time += DT
             self.waypoints.steer(self.motion, self.spec.origin)
+            self.spooler.step(self._physics_time)
             self.motion.step(DT)
             self.sensors.t = self._physics_time
         if self._init_done_at <= now:
@@ -317,6 +319,7 @@ class SimVehicle:
         for comp in self.components.values():
             comp.reset()
         self.waypoints.clear()
+        self.spooler = spooling.Spooler()
         self.motion.stop()
         self.effort = {}
         self._init_done_at = now + self.spec.init_time
@@ -354,6 +357,8 @@ class SimVehicle:
             comp.state = STANDBY
         if comp.offers(svc.PRIMITIVE_DRIVER) or comp.offers(svc.WAYPOINT_LIST_DRIVER):
             self._halt()
+        if comp.offers(svc.MISSION_SPOOLER):
+            self.spooler.lost_control()
 
     def _halt(self) -> None:
         self.motion.stop()
@@ -728,6 +733,12 @@ class SimVehicle:
     def _report_active_element(self, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
         return {"element_uid": self.waypoints.active}
 
+    def _report_path_segment(self, comp: Component,
+                             fields: dict[str, Any]) -> dict[str, Any] | None:
+        elem = self.waypoints.elements.get(self.waypoints.active)
+        segment = elem.waypoint.get("segment") if elem is not None else None
+        return dict(segment) if segment is not None else None
+
     def _report_travel_speed(self, comp: Component, fields: dict[str, Any]) -> dict[str, Any]:
         return {"speed": clamp(self.waypoints.travel_speed, 0, 327.67)}
 
@@ -761,8 +772,8 @@ class SimVehicle:
             waypoint = None
             if data.get("format") == 0:
                 inner = self._decode_query(data["data"])
-                if inner is not None and inner.code == SET_GLOBAL_WAYPOINT:
-                    waypoint = inner.fields
+                if inner is not None and inner.fields is not None:
+                    waypoint = target_of(inner.code, inner.fields)
             waypoints.append(waypoint)
         code = self.waypoints.set_elements(records, waypoints)
         if code:
@@ -861,6 +872,18 @@ def _management_handler(name: str) -> Handler:
     return handle
 
 
+def _spooler_order(method: str, timed: bool = False) -> Handler:
+    """A Mission Spooler order: only from the controller in READY (see ``spooling``)."""
+    def handle(vehicle: SimVehicle, comp: Component, source: JausAddress,
+               fields: dict[str, Any], now: float) -> list[Action]:
+        if vehicle._commanding(comp, source, method):
+            order = getattr(vehicle.spooler, method)
+            done = order(fields, now) if timed else order(fields)
+            vehicle.counters["commands_obeyed" if done else "spooler_orders_ignored"] += 1
+        return []
+    return handle
+
+
 _HANDLERS: dict[str, tuple[str, Handler]] = {
     "RequestControl": (svc.ACCESS_CONTROL, SimVehicle._request_control),
     "ReleaseControl": (svc.ACCESS_CONTROL, SimVehicle._release_control),
@@ -882,6 +905,15 @@ _HANDLERS: dict[str, tuple[str, Handler]] = {
     "SetElement": (svc.LIST_MANAGER, SimVehicle._set_element),
     "DeleteElement": (svc.LIST_MANAGER, SimVehicle._delete_element),
     "ExecuteList": (svc.WAYPOINT_LIST_DRIVER, SimVehicle._execute_list),
+    "SpoolMission": (svc.MISSION_SPOOLER, _spooler_order("spool")),
+    "RunMission": (svc.MISSION_SPOOLER, _spooler_order("run", timed=True)),
+    "PauseMission": (svc.MISSION_SPOOLER, _spooler_order("pause")),
+    "ResumeMission": (svc.MISSION_SPOOLER, _spooler_order("resume", timed=True)),
+    "AbortMission": (svc.MISSION_SPOOLER, _spooler_order("abort")),
+    "InsertMessages": (svc.MISSION_SPOOLER, _spooler_order("insert_messages")),
+    "RemoveMessages": (svc.MISSION_SPOOLER, _spooler_order("remove_messages")),
+    "InsertMissionTask": (svc.MISSION_SPOOLER, _spooler_order("insert_task")),
+    "RemoveMissionTask": (svc.MISSION_SPOOLER, _spooler_order("remove_tasks")),
 }
 
 #: query name -> (service, report name, report builder)
@@ -915,6 +947,16 @@ _QUERIES: dict[str, tuple[str, str, Builder]] = {
                            SimVehicle._report_active_element),
     "QueryTravelSpeed": (svc.WAYPOINT_LIST_DRIVER, "ReportTravelSpeed",
                          SimVehicle._report_travel_speed),
+    "QueryGlobalPathSegment": (svc.PATH_SEGMENT_DRIVER, "ReportGlobalPathSegment",
+                               SimVehicle._report_path_segment),
+    "QueryMissionStatus": (svc.MISSION_SPOOLER, "ReportMissionStatus",
+                           lambda v, c, f: v.spooler.report_status()),
+    "QueryStoredMissions": (svc.MISSION_SPOOLER, "ReportStoredMissions",
+                            lambda v, c, f: v.spooler.report_stored()),
+    "QueryMissionPlan": (svc.MISSION_SPOOLER, "ReportMissionPlan",
+                         lambda v, c, f: v.spooler.report_plan(f)),
+    "QuerySpoolingPreferences": (svc.MISSION_SPOOLER, "ReportSpoolingPreferences",
+                                 lambda v, c, f: {"data": {"ushort": 1}}),
     "QueryRangeSensorData": (svc.RANGE_SENSOR, "ReportRangeSensorData",
                              _sensor(Sensors.range_sensor_data)),
     "QueryStillImageData": (svc.STILL_IMAGE, "ReportStillImageData",

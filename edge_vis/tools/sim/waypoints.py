@@ -2,9 +2,10 @@
 
 Elements are a doubly linked list keyed by UID (AS5710A List Manager): each SetElement
 record names its previous and next UIDs, 0 meaning none. A request is applied whole or
-refused whole with the JSIDL response code. Element data must be a SetGlobalWaypoint
-message; the driver steers the kinematic model to each waypoint in turn at the travel
-speed given by ExecuteList and reports the active element (0 when none).
+refused whole with the JSIDL response code. Element data must be a SetGlobalWaypoint or
+a SetGlobalPathSegment message (the Global Path Segment Driver's list, driven straight to
+each segment's end point); the driver steers the kinematic model to each waypoint in turn
+at the travel speed given by ExecuteList and reports the active element (0 when none).
 """
 
 from __future__ import annotations
@@ -27,6 +28,22 @@ MAX_ELEMENTS = 1000
 ALL_ELEMENTS = 0xFFFF
 DEFAULT_TOLERANCE = 1.0
 SET_GLOBAL_WAYPOINT = 0x040C
+SET_GLOBAL_PATH_SEGMENT = 0x040F
+
+
+def target_of(code: int, fields: dict[str, Any]) -> dict[str, Any] | None:
+    """The waypoint an element drives to: a SetGlobalWaypoint's, or a SetGlobalPathSegment's
+    end point P2 (the sim drives straight to it; the segment is kept under ``segment``);
+    None for any other message."""
+    if code == SET_GLOBAL_WAYPOINT:
+        return dict(fields)
+    if code == SET_GLOBAL_PATH_SEGMENT:
+        target = {"latitude": fields["p2_latitude"], "longitude": fields["p2_longitude"],
+                  "segment": dict(fields)}
+        if "path_tolerance" in fields:
+            target["waypoint_tolerance"] = min(100.0, fields["path_tolerance"])
+        return target
+    return None
 
 
 @dataclass(slots=True)
