@@ -8,7 +8,8 @@ for which operator it holds it. From its peers' samples and its own, each relay 
 :func:`~edge_vis.engine.serving.choose_server` per vehicle and
 
 * **starts serving** a vehicle it is chosen for once no other live relay claims it (and,
-  for a vehicle nobody served, once its own claim has been out for ``settle`` seconds):
+  for a vehicle nobody served, once its own claim has been out for ``settle`` seconds,
+  or at once when it knows no other relay and has run for ``settle`` seconds):
   it sets up the events, takes JAUS control for the operator the previous server held it
   for, and publishes the vehicle's state and telemetry, naming itself in VehicleStatus;
 * **stops serving** a vehicle it is no longer chosen for: cancels the events, releases
@@ -178,7 +179,9 @@ class Duty:
             mine = self._said.get(vid)
             if mine is None or mine.score <= 0:
                 self._claimed_since.pop(vid, None)
-            claims = [Claim(self.name, mine.score if mine else 0.0, vehicle.serving)]
+            # with peers, decide on what they have seen of this relay; alone, on the now
+            my_score = (mine.score if mine else 0.0) if self.peers else self.score(vehicle)
+            claims = [Claim(self.name, my_score, vehicle.serving)]
             others = []
             for relay, peer in self.peers.items():
                 entry = peer.vehicles.get(vid)
@@ -193,9 +196,11 @@ class Duty:
                 self._stop(vehicle, chosen, now)
                 changed = True
             elif not vehicle.serving and chosen == self.name and not others:
+                # peers must have seen this relay's claim before it takes a vehicle
+                # nobody serves; alone (after the start-up settle), nobody can object
                 since = self._claimed_since.get(vid)
-                settled = (since is not None and now - since >= settle
-                           and now - self.started_at >= settle)
+                settled = now - self.started_at >= settle and (
+                    not self.peers or (since is not None and now - since >= settle))
                 if settled or vid in self.served_by:
                     self._start(vehicle, now)
                     changed = True

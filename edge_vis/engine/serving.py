@@ -21,7 +21,7 @@ stand by. The rules, in order:
 A relay acts on the answer with two more rules kept by :mod:`~edge_vis.engine.duty`: it
 starts serving only when no other live relay still claims the vehicle (so a hand-over
 never has two servers), and an unclaimed vehicle only after its own claim has been out
-for the settle time (so its peers have seen it).
+for the settle time (so its peers have seen it; a relay with no peers, at once).
 """
 
 from __future__ import annotations
