@@ -8,7 +8,8 @@ A translator plugin imports from here and from nothing else of edge-vis::
   :class:`TranslatorContext` (time, relay, vehicles, live catalogue), :class:`VehicleView`,
   :class:`ReportSpec`, :func:`derive_vehicle_id`, :class:`JausAddress`;
 * the actions a hook returns (:mod:`edge_vis.kit.actions`): :class:`Publish`,
-  :class:`Command`, :class:`DeclareVehicle`, :class:`EmergencyRequest` (the engine's
+  :class:`Command`, :class:`DeclareVehicle`, :class:`EmergencyRequest`, :class:`Dropped`
+  (the engine's
   own :class:`SendMessage` and :class:`ShutdownComplete` live beside them);
 * the rule vocabulary (:mod:`edge_vis.kit.rules`): report and command tables that
   :class:`RuleTranslator` runs and ``edge-vis mappings`` prints, and :func:`path_problem`
@@ -27,6 +28,7 @@ from edge_vis.kit.actions import (
     Action,
     Command,
     DeclareVehicle,
+    Dropped,
     EmergencyRequest,
     Publish,
     SendMessage,
@@ -61,6 +63,7 @@ from edge_vis.kit.rules import (
     clamp,
     code_of,
     declarations,
+    decode_as,
     describe_rules,
     extract,
     flags,
@@ -88,6 +91,7 @@ __all__ = [
     "Const",
     "DeclareVehicle",
     "DecodeError",
+    "Dropped",
     "Each",
     "EmergencyRequest",
     "EncodeError",
@@ -110,6 +114,7 @@ __all__ = [
     "clamp",
     "code_of",
     "declarations",
+    "decode_as",
     "derive_vehicle_id",
     "describe_rules",
     "extract",
