@@ -31,7 +31,7 @@ CONTROL_TIMEOUT = 2
 TAKEOVER_BOUND = 1.75 + CONTROL_TIMEOUT + 1.5
 
 
-def run(group: RelayGroup, body: Callable[[], Awaitable[None]], timeout: float = 45.0) -> None:
+def run(group: RelayGroup, body: Callable[[], Awaitable[None]], timeout: float = 75.0) -> None:
     async def main() -> None:
         try:
             await group.start()
@@ -44,10 +44,20 @@ def run(group: RelayGroup, body: Callable[[], Awaitable[None]], timeout: float =
     asyncio.run(main())
 
 
+def agreed(group: RelayGroup) -> bool:
+    """Every relay is up and reaches the vehicle, and exactly one says it serves it."""
+    relays = [s for s in group.latest("RelayStatus") if not s["leaving"]]
+    reach = [v for s in relays for v in s["vehicles"] if v["vehicle_id"] == group.vehicle_id]
+    return (len(relays) == group.count and len(reach) == group.count
+            and sum(v["serving"] for v in reach) == 1)
+
+
 async def establish(group: RelayGroup) -> int:
-    """One relay serves and drives for the operator; returns its index."""
-    await until(lambda: bool(group.vehicle_id) and bool(group.serving()), 20,
+    """Every relay up (a loaded host starts them seconds apart), one serves and drives for
+    the operator; returns its index."""
+    await until(lambda: bool(group.vehicle_id) and bool(group.serving()), 40,
                 "the first GlobalPose and VehicleStatus")
+    await until(lambda: agreed(group), 20, "every relay up and reaching the vehicle, one serving")
     group.request()
     group.start_driving()
     await until(lambda: group.commands_obeyed > 5, 15, "commands obeyed through one relay")
