@@ -85,6 +85,8 @@ class EngineState:
         #: several relays may reach a vehicle: only the vehicles whose ``serving`` is set
         #: are served (:mod:`edge_vis.engine.duty`); False: every vehicle is
         self.arbitrated = False
+        #: (topic, instance key) -> the latest merged sample (Publish with ``merge``)
+        self.merged: dict[tuple[str, tuple[Any, ...]], dict[str, Any]] = {}
         #: ShutdownComplete was emitted: the engine takes no more input
         self.done = False
         self._catalogue = catalogue
