@@ -118,6 +118,8 @@ def test_check_accepts_the_secured_profile(made: Path,
     ("other operator's permissions", "dds.security.permissions",
      "grants nothing to the certificate's subject CN=relay.relay1"),
     ("open access", "access.any_operator", "set it to false"),
+    ("corrupt certificate", "dds.security.certificate",
+     "`openssl x509 -noout -subject -nameopt RFC2253 -in "),
 ])
 def test_check_refuses_material_not_signed_by_the_configured_ca(
         site: Path, change: str, key: str, words: str,
@@ -132,6 +134,9 @@ def test_check_refuses_material_not_signed_by_the_configured_ca(
         shutil.copy(site / "foreign/relay/relay1/key.pem", ours / "key.pem")
     elif change == "other operator's permissions":
         shutil.copy(site / "security/operator/op1/permissions.p7s", ours / "permissions.p7s")
+    elif change == "corrupt certificate":  # openssl's own words reach the deployer
+        (ours / "cert.pem").write_text("not a certificate\n")
+        words += f"{ours / 'cert.pem'}` failed (exit 1): Could not read certificate from"
     else:
         profile = site / "relay.toml"
         profile.write_text(profile.read_text() + "[access]\nany_operator = true\n")
