@@ -20,7 +20,7 @@
 # DDS Security: with PYTHON=.venv-secure/bin/python (scripts/setup.sh --secure) the bundle
 # carries that environment's cyclonedds binding, built again from source against Debian's
 # Cyclone DDS (never the PyPI wheel of the same version, whose bundled library has no
-# security plugins); its wheels are kept apart (build/wheelhouse-secure). The relay then
+# security plugins), kept apart in build/wheelhouse/secure. The relay then
 # needs Debian's libddsc0debian installed, and the build fails if the assembled bundle
 # would not have DDS Security.
 set -euo pipefail
@@ -38,11 +38,9 @@ if library.in_wheel is False:
     print(version("cyclonedds"))
 EOF
 )
-if [[ -n $secure ]]; then
-    wheelhouse=${EDGE_VIS_WHEELHOUSE:-$here/build/wheelhouse-secure}
-else
-    wheelhouse=${EDGE_VIS_WHEELHOUSE:-$here/build/wheelhouse}
-fi
+wheelhouse=${EDGE_VIS_WHEELHOUSE:-$here/build/wheelhouse}
+# the binding built against the system library, apart from the index's wheels
+secure_wheels="$wheelhouse/secure"
 out=${EDGE_VIS_BUNDLE:-$here/dist/edge-vis.pyz}
 mkdir -p "$wheelhouse" "$(dirname "$out")"
 work=$(mktemp -d "${TMPDIR:-/tmp}/edge-vis-bundle.XXXXXX")
@@ -73,7 +71,7 @@ pip wheel -q --no-deps -w "$wheelhouse" "$work/src"
 
 # 2. dependencies, reusing wheels already in the wheelhouse
 deps=("$(pin cyclonedds 'cyclonedds>=0.10')" "$(pin pyserial 'pyserial>=3.5')")
-if [[ -n $secure ]]; then
+if [[ -n $secure ]] && ! compgen -G "$secure_wheels/cyclonedds-$secure-*.whl" >/dev/null; then
     # as scripts/setup.sh --secure builds it: $CYCLONEDDS_HOME/{include,bin,lib} are
     # Debian's /usr/include, /usr/bin and multiarch library folder
     multiarch="$(dpkg-architecture -qDEB_HOST_MULTIARCH 2>/dev/null || gcc -print-multiarch)"
@@ -83,9 +81,11 @@ if [[ -n $secure ]]; then
     ln -s /usr/bin "$home/bin"
     ln -s "/usr/lib/$multiarch" "$home/lib"
     say "building cyclonedds==$secure against Debian's Cyclone DDS (DDS Security)"
-    rm -f "$wheelhouse"/cyclonedds-*.whl
+    rm -rf "$secure_wheels"
     CYCLONEDDS_HOME="$home" pip wheel -q --no-deps --no-cache-dir --no-binary cyclonedds \
-        -w "$wheelhouse" "cyclonedds==$secure"
+        -w "$secure_wheels" "cyclonedds==$secure"
+fi
+if [[ -n $secure ]]; then
     fetch=("${deps[@]:1}")  # the index's wheel of that version must not replace it
 else
     fetch=("${deps[@]}")
@@ -103,6 +103,9 @@ fi
 
 # 3. one site-packages with exactly these distributions, then the zipapp
 say "assembling $out"
+if [[ -n $secure ]]; then  # that very wheel, whatever else the wheelhouse holds
+    deps[0]=$(echo "$secure_wheels"/cyclonedds-*.whl)
+fi
 pip install -q --no-deps --no-index --find-links "$wheelhouse" --target "$work/site" \
     edge-vis "${deps[@]}"
 rm -rf "$work/site/bin"
