@@ -162,7 +162,7 @@ class VehicleEndpoint:
             if whole is None:
                 continue
             try:
-                message = self.catalogue.decode(whole.payload)
+                message = self.catalogue.decode(whole.payload, vehicle.dialects)
             except DecodeError as exc:
                 self.counters["undecodable"] += 1
                 log.warning("%s: undecodable message from %s: %s", self.name, whole.source, exc)
@@ -196,11 +196,15 @@ class VehicleEndpoint:
         self._sequences[source] = (seq + count) & 0xFFFF
         return seq
 
+    @property
+    def _dialects(self) -> tuple[str, ...]:
+        return self.vehicle.dialects if self.vehicle is not None else ()
+
     def _send(self, send: Send) -> None:
         if send.name == "ReportAtrImageAvailable" and self.spec.atr_dir:
             self._write_atr_image(int(send.fields["image_id"]))
         try:
-            payload = self.catalogue.encode(send.name, send.fields)
+            payload = self.catalogue.encode(send.name, send.fields, self._dialects)
         except EncodeError as exc:
             self.counters["encode_errors"] += 1
             log.error("%s: cannot encode %s: %s", self.name, send.name, exc)
