@@ -12,10 +12,10 @@
 # Cyclone DDS with its security plugins, .venv-secure) and pytest on the tests where the
 # binding matters (SECURE_TESTS below: the bridge on that binding, DDS end to end, secured
 # relays and operators in separate processes, the security tooling, a bundle built from
-# that environment, the image receiver on DDS; not the whole suite, which takes about
-# 25 min on 0.10.2 under load, see README "Set-up details"). It runs whenever the secure set-up is possible here (Debian
-# packages installed, or apt with root/sudo and the packages available); otherwise it is
-# skipped with the reason. EDGE_VIS_SECURE_PASS=0 skips it, =1 makes it mandatory.
+# that environment, the image receiver on DDS; about 5 min. Not the whole suite, which
+# takes about 26 min on 0.10.2 under load: README "Set-up details"). It runs whenever the
+# secure set-up is possible here (Debian packages installed, or apt with root/sudo and the
+# packages available); otherwise it is skipped with the reason. EDGE_VIS_SECURE_PASS=0 skips it, =1 makes it mandatory.
 set -uo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
