@@ -344,6 +344,15 @@ class Runtime:
             return
         assert self._loop is not None and self.engine is not None
         now = self._loop.time()
+        action = sample.get("action", 0)  # the enum member, its name or its value
+        if topic == "EmergencyCommand" and str(getattr(action, "name", action)).lower() in (
+                "0", "set"):
+            # a stop is never lost: it is obeyed as the operator who proved who it is
+            self.counters["emergency stops taken as their sender"] += 1
+            self._log.warning("impersonation", now, "EmergencyCommand SET claiming %r taken "
+                              "as %s, its sender", claimed, sender)
+            self._on_sample(topic, {**sample, "operator_id": sender})
+            return
         self.counters["commands refused: operator_id is not the sender"] += 1
         reason = f"operator_id {claimed!r} refused: sent by {sender}"
         self._log.warning("impersonation", now, "%s %s", topic, reason)

@@ -53,7 +53,7 @@ domain = {domain}
 partitions = ["{partition}"]
 {security}
 [translators]
-enabled = ["core", "mobility"]
+enabled = ["core", "mobility", "emergency"]
 [discovery]
 period = 0.5
 liveness_period = 0.5
@@ -91,11 +91,12 @@ class Deployment:
         return {k: str(v) for k, v in asdict(settings).items()}
 
     def operator(self, security: dict[str, str] | None, *, write_as: str,
-                 claim: str | None = None) -> list[dict[str, Any]]:
+                 claim: str | None = None, stop: bool = False) -> list[dict[str, Any]]:
         """Run an operator station process until it is done; its events."""
         config = {"domain": self.domain, "partitions": [self.partition],
                   "security": security, "write_partition": f"operator.{write_as}",
-                  "claim": claim or write_as, "seconds": SECONDS}
+                  "write_as": write_as, "claim": claim or write_as, "seconds": SECONDS,
+                  "stop": stop}
         done = subprocess.run([sys.executable, str(PEER), json.dumps(config)],
                               capture_output=True, text=True, timeout=60, check=False)
         assert done.returncode == 0, done.stderr[-2000:]
@@ -199,6 +200,22 @@ def test_an_operator_claiming_another_operator_id_is_refused_and_counted(
     assert sim.counters["commands_obeyed"] == obeyed
 
 
+def test_an_emergency_stop_claiming_another_operator_is_obeyed_as_its_sender(
+        deployment: Deployment) -> None:
+    """A stop is never lost: op2's SET that says it is op1 stops the vehicle, in op2's
+    name (so op1's authority cannot be borrowed to clear it), and op2 can clear it."""
+    runtime = deployment.runtime
+    key = "emergency stops taken as their sender"
+    before = runtime.counters[key]
+    events = deployment.operator(deployment.files(deployment.ours, OPERATOR, "op2"),
+                                 write_as="op2", claim="op1", stop=True)
+    stopped = _event(events, "stopped")
+    assert stopped is not None, events
+    assert stopped["status"]["emergency_operator"] == "op2", stopped
+    assert runtime.counters[key] > before
+    assert _event(events, "cleared"), events
+
+
 def test_a_read_only_identity_cannot_create_a_command_writer(deployment: Deployment) -> None:
     events = deployment.operator(deployment.files(deployment.ours, "observer", "mon"),
                                  write_as="mon")
@@ -238,8 +255,13 @@ def test_a_station_without_security_and_the_secure_relay_never_talk(
 def test_relay_reads_commands_only_from_listed_operators_partitions(
         deployment: Deployment) -> None:
     bridge = deployment.runtime.publisher
-    partitions = sorted({s.partition for s in bridge._subscriptions})
+    # every command topic is read only in the listed operators' partitions (RelayStatus,
+    # from the other relays, in the relay's own)
+    partitions = sorted({s.partition for s in bridge._subscriptions
+                         if s.spec.name != "RelayStatus"})
     assert partitions == ["operator.op1", "operator.op2"]
+    assert {s.partition for s in bridge._subscriptions if s.spec.name == "RelayStatus"} \
+        == {None}
     assert bridge.secure
 
 
