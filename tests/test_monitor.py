@@ -131,6 +131,18 @@ def test_who_holds_each_component_and_the_clock_offset_are_shown() -> None:
     assert "clock" not in "\n".join(view.render(2.0))
 
 
+def test_camera_stream_state_is_shown_per_camera() -> None:
+    view = FleetView()
+    view.ingest("SensorState", {"vehicle_id": "v", "sensor_id": 1, "configuration": "x=1"},
+                0.0)
+    assert "camera" not in "\n".join(view.render(0.0))  # no stream asked for yet
+    view.ingest("SensorState", {"vehicle_id": "v", "sensor_id": 2, "stream": "PLAY"}, 0.0)
+    view.ingest("SensorState", {"vehicle_id": "v", "sensor_id": 1, "stream": "PAUSE"}, 1.0)
+    assert "camera 1:pause 2:play" in "\n".join(view.render(1.0))
+    view.ingest("SensorState", {"vehicle_id": "v", "sensor_id": 2, "stream": "STOP"}, 2.0)
+    assert "camera 1:pause 2:stop" in "\n".join(view.render(2.0))
+
+
 def test_operator_keys_make_commands() -> None:
     view = FleetView()
     _fleet(view, 0.0)

@@ -6,6 +6,15 @@ translator keeps the contract's default rows, from its ``messages`` and ``publis
 Markdown (for the README) by default, ``--json`` for tools. ``--profile`` applies a
 deployment profile: its translator selection and the ``generic`` translator's mappings.
 Reads the profile (and the files it references) only.
+
+Counting (``counts``, with the catalogue: :func:`coverage`): a message is *translated* when a
+row maps it JAUS -> DDS or DDS -> JAUS and it is not a query; *queried* when it is only
+sent to obtain a report (a ``Query*`` message, also one a DDS command triggers); *handled
+by the engine* when the core declares it (:mod:`edge_vis.engine.handled`). *On the wire*
+is all three. A public service URI (of the built-in message sets, client services left
+out) is *covered* when at least one message its service declares is translated or handled
+by the engine. Every other catalogue message is listed with the reason it is not
+translated; one without a reason is ``unexplained``.
 """
 
 from __future__ import annotations
@@ -17,8 +26,11 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 from edge_vis import plugins
+from edge_vis.catalogue import Catalogue, default_catalogue
 from edge_vis.config import TranslatorSelection, load_profile
+from edge_vis.engine.handled import ENGINE_DECLINED, ENGINE_HANDLED, ENGINE_RECEIVES
 from edge_vis.engine.manager import TranslationManager
+from edge_vis.jaus.messages import BUILTIN_SETS
 from edge_vis.kit import Translator
 
 NAME = "mappings"
@@ -57,14 +69,24 @@ def collect(selection: TranslatorSelection | None = None,
     return rows
 
 
-def counts(rows: Iterable[Mapping[str, Any]]) -> dict[str, int]:
-    """How many distinct JAUS messages the rows translate, by role."""
+def is_query(name: str) -> bool:
+    """Whether ``name`` is a query (JAUS names every query message ``Query...``)."""
+    return name.startswith("Query")
+
+
+def counts(rows: Iterable[Mapping[str, Any]],
+           catalogue: Catalogue | None = None) -> dict[str, Any]:
+    """How many distinct JAUS messages the rows translate, by role (see the module doc);
+    with ``catalogue``, also the wire and service coverage (:func:`coverage`)."""
     rows = list(rows)
+    mapped = {r["message"] for r in rows if r["direction"] != "none"}
     reports = {r["message"] for r in rows if r["direction"] == "jaus->dds"}
-    commands = {r["message"] for r in rows if r["direction"] == "dds->jaus"}
-    queries = {r["query"] for r in rows if r["direction"] == "jaus->dds" and r["query"]}
+    commands = {r["message"] for r in rows
+                if r["direction"] == "dds->jaus" and not is_query(r["message"])}
+    queries = {r["query"] for r in rows if r["direction"] == "jaus->dds" and r["query"]} | {
+        m for m in mapped if is_query(m)}
     translated = reports | commands
-    return {
+    out: dict[str, Any] = {
         "translated_messages": len(translated),
         "jaus_to_dds": len(reports),
         "dds_to_jaus": len(commands),
@@ -75,11 +97,80 @@ def counts(rows: Iterable[Mapping[str, Any]]) -> dict[str, int]:
         "not_translated": len({r["message"] for r in rows if r["direction"] == "none"}
                               - translated),
     }
+    if catalogue is not None:
+        cover = coverage(rows, catalogue)
+        out.update({k: v for k, v in cover.items() if not isinstance(v, list)})
+    return out
 
 
-def markdown(rows: list[dict[str, Any]]) -> str:
+def public_services(catalogue: Catalogue) -> dict[str, set[str]]:
+    """Public non-client service URI -> the names of the messages it declares."""
+    out: dict[str, set[str]] = {}
+    for defn in catalogue:
+        if defn.service_set not in BUILTIN_SETS:
+            continue
+        for uri, _version in defn.services:
+            uri = uri.strip()
+            if not uri.endswith("Client"):
+                out.setdefault(uri, set()).add(defn.name)
+    return out
+
+
+def coverage(rows: Iterable[Mapping[str, Any]], catalogue: Catalogue) -> dict[str, Any]:
+    """What reaches the wire and which public services it covers (see the module doc).
+
+    ``untranslated`` lists every message of the built-in sets that is not translated, with
+    its reason (a translator's ``not translated`` row, the engine's declaration, or the
+    report it is queried for); ``unexplained`` the names that have none."""
+    rows = list(rows)
+    mapped = {r["message"] for r in rows if r["direction"] != "none"}
+    translated = {m for m in mapped if not is_query(m)}
+    queried_for: dict[str, str] = {}
+    for r in rows:
+        if r["direction"] == "jaus->dds" and r["query"]:
+            queried_for.setdefault(r["query"], f"sent to obtain {r['message']}")
+        elif r["direction"] == "dds->jaus" and is_query(r["message"]):
+            queried_for.setdefault(r["message"], f"sent when {r['topic']} asks for it")
+    reasons = {r["message"]: f"{r['translator']}: {r['doc']}" for r in rows
+               if r["direction"] == "none" and r.get("doc")}
+    wire = translated | set(queried_for) | ENGINE_HANDLED
+    services = public_services(catalogue)
+    covered = sorted(uri for uri, names in services.items()
+                     if names & (translated | ENGINE_HANDLED))
+    untranslated: list[dict[str, str]] = []
+    unexplained: list[str] = []
+    for defn in catalogue:
+        if defn.service_set not in BUILTIN_SETS or defn.name in translated:
+            continue
+        if defn.name in ENGINE_HANDLED:
+            why = "engine: " + (ENGINE_RECEIVES.get(defn.name) or "sent by the engine")
+        elif defn.name in queried_for:
+            why = "query: " + queried_for[defn.name]
+        elif defn.name in reasons:
+            why = reasons[defn.name]
+        elif defn.name in ENGINE_DECLINED:
+            why = "engine: " + ENGINE_DECLINED[defn.name]
+        else:
+            why = ""
+            unexplained.append(defn.name)
+        untranslated.append({"message": defn.name, "set": defn.service_set, "reason": why})
+    return {
+        "engine_handled": len(ENGINE_HANDLED - translated),
+        "wire_messages": len(wire),
+        "public_services": len(services),
+        "public_services_covered": len(covered),
+        "public_services_covered_percent": round(100.0 * len(covered) / len(services), 1)
+        if services else 0.0,
+        "catalogue_untranslated": len(untranslated),
+        "unexplained": sorted(set(unexplained)),
+        "services_not_covered": sorted(set(services) - set(covered)),
+        "untranslated": untranslated,
+    }
+
+
+def markdown(rows: list[dict[str, Any]], catalogue: Catalogue | None = None) -> str:
     """The table as Markdown: one section per translator."""
-    total = counts(rows)
+    total = counts(rows, catalogue)
     out = [
         "# JAUS ⇄ DDS mappings",
         "",
@@ -89,6 +180,12 @@ def markdown(rows: list[dict[str, Any]]) -> str:
         f"sent to obtain reports ({total['jaus_messages_total']} JAUS messages in all).",
         "Generated by `edge-vis mappings` from the translators' declarations.",
     ]
+    if catalogue is not None:
+        out.insert(-1, f"On the wire: {total['wire_messages']} JAUS messages (translated, "
+                       f"queried, or among the {total['engine_handled']} more the engine "
+                       f"handles itself); {total['public_services_covered']} of the "
+                       f"{total['public_services']} public non-client service URIs "
+                       f"covered ({total['public_services_covered_percent']:g} %).")
     translators = list(dict.fromkeys(r["translator"] for r in rows))
     for name in translators:
         mine = [r for r in rows if r["translator"] == name]
@@ -107,7 +204,25 @@ def markdown(rows: list[dict[str, Any]]) -> str:
         if skipped:
             out += ["", "Not translated:", ""]
             out += [f"- {r['message']}: {r['doc']}" for r in skipped]
+    if catalogue is not None:
+        out += _engine_section(rows, catalogue)
     return "\n".join(out) + "\n"
+
+
+def _engine_section(rows: list[dict[str, Any]], catalogue: Catalogue) -> list[str]:
+    """The core messages the engine handles itself or leaves alone, and any catalogue
+    message with neither a row nor a reason."""
+    translated = {r["message"] for r in rows if r["direction"] != "none"}
+    cover = coverage(rows, catalogue)
+    out = ["", "## engine", "",
+           "Handled by the engine itself (discovery, access control, events, liveness, time, "
+           "emergency stop): " + ", ".join(sorted(ENGINE_HANDLED - translated)) + ".",
+           "", "Not used:", ""]
+    out += [f"- {name}: {why}" for name, why in ENGINE_DECLINED.items()]
+    if cover["unexplained"]:
+        out += ["", f"Not translated, no reason given ({len(cover['unexplained'])}): "
+                    + ", ".join(cover["unexplained"]) + "."]
+    return out
 
 
 def _field(f: Mapping[str, Any], direction: str) -> str:
@@ -144,10 +259,15 @@ def run(args: argparse.Namespace) -> int:
             # load() raises PluginNotFoundError listing the installed translators
             plugins.load(plugins.TRANSLATORS, unknown[0])
     rows = collect(selection, args.translator)
+    # coverage is of the whole relay: with a subset of translators it would mislead
+    catalogue = None if args.translator else default_catalogue()
     if args.count:
         print(counts(rows)["translated_messages"])
     elif args.json:
-        print(json.dumps({"counts": counts(rows), "rows": rows}, indent=2, default=str))
+        cover = coverage(rows, catalogue) if catalogue is not None else {}
+        print(json.dumps({"counts": counts(rows, catalogue), "rows": rows,
+                          **{k: v for k, v in cover.items() if isinstance(v, list)}},
+                         indent=2, default=str))
     else:
-        print(markdown(rows), end="")
+        print(markdown(rows, catalogue), end="")
     return 0

@@ -330,6 +330,76 @@ class SensorInfo(IdlStruct, typename="edge_vis::SensorInfo"):
     horizontal_fov: float64 = 0.0
     vertical_fov: float64 = 0.0
     update_rate_hz: float64 = 0.0
+    # mounting (ReportSensorGeometricProperties): position (m) and orientation (unit
+    # quaternion w, x, y, z) in the vehicle frame, or on a manipulator joint (mounted_on)
+    mount_x: float64 = NAN
+    mount_y: float64 = NAN
+    mount_z: float64 = NAN
+    mount_qw: float64 = NAN
+    mount_qx: float64 = NAN
+    mount_qy: float64 = NAN
+    mount_qz: float64 = NAN
+    mounted_on: str = ""
+
+
+@dataclass
+class SensorState(IdlStruct, typename="edge_vis::SensorState"):
+    """What a sensor of one ``kind`` (visual, digital_video, analog_video, still_image,
+    range) is set to: its configuration as ``name=value`` pairs (JAUS field names and
+    values), the answer to the last configuration sent, and the video stream state last
+    asked for through the relay (JAUS reports no stream state)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    sensor_id: uint16
+    key("sensor_id")
+    kind: str
+    key("kind")
+    configuration: str = ""
+    confirmation: str = ""
+    stream: str = ""
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class SensorCommand(IdlStruct, typename="edge_vis::SensorCommand"):
+    """An operator's order to one sensor: ``action`` configure (``kind`` visual,
+    digital_video, analog_video, still_image or range; ``settings`` as ``name=value``
+    pairs of the JAUS Set...SensorConfiguration fields), play / pause / stop (the digital
+    video stream) or capture (one still image now)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    sensor_id: uint16
+    action: str
+    kind: str = ""
+    settings: str = ""
+
+
+@dataclass
+class HmiInput(IdlStruct, typename="edge_vis::HmiInput"):
+    """An input device of an operator interface on the vehicle's JAUS network (a hand-held
+    controller, a panel): ``device`` is ``keyboard``, ``pointer``, ``dcm_<ref>`` (a
+    digital control) or ``analog_<ref>`` (a joystick; axes -1..1 of full deflection);
+    ``state`` the last action (``PRESSED``, ``LEFT DOWN``...), ``code`` the key or
+    control, ``x``/``y`` the pointer position (viewport pixels)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    device: str
+    key("device")
+    name: str = ""
+    state: str = ""
+    code: int32 = 0
+    x: float64 = NAN
+    y: float64 = NAN
+    z: float64 = NAN
+    roll: float64 = NAN
+    pitch: float64 = NAN
+    yaw: float64 = NAN
+    valid: bool = True
+    timestamp_ms: int64 = 0
 
 
 @dataclass
@@ -1296,6 +1366,9 @@ STRUCTS: tuple[type[IdlStruct], ...] = (
     HealthStatus,
     RangeScan,
     SensorInfo,
+    SensorState,
+    SensorCommand,
+    HmiInput,
     ImageProduct,
     ImageData,
     TransferStatus,

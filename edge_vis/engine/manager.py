@@ -30,7 +30,7 @@ from typing import Any
 from edge_vis import plugins
 from edge_vis.config import TranslatorSelection
 from edge_vis.errors import ConfigError, PluginConflictError, PluginLoadError
-from edge_vis.kit.actions import Action
+from edge_vis.kit.actions import Action, Dropped
 from edge_vis.kit.contract import Binding, ReportSpec, Translator, TranslatorContext
 from edge_vis.routing.accounting import LogLimiter
 
@@ -54,6 +54,8 @@ class TranslationManager:
         self.publishers: dict[str, tuple[Translator, ...]] = {}
         #: translator name -> how many calls raised
         self.errors: Counter[str] = Counter()
+        #: (translator name, reason) -> parts of messages it dropped (:class:`Dropped`)
+        self.drops: Counter[tuple[str, str]] = Counter()
         self._log = LogLimiter(log)
         claims_sub: dict[str, str] = dict.fromkeys(ENGINE_SUBSCRIBES, ENGINE)
         for tr in self.translators:
@@ -143,9 +145,26 @@ class TranslationManager:
         if tr is None:
             return []
         try:
-            return list(tr.on_message(name, fields, ctx))
+            actions = list(tr.on_message(name, fields, ctx))
         except Exception as exc:
             return self._failed(tr, f"JAUS {name}", exc, ctx)
+        return self._count_drops(tr, f"JAUS {name}", actions, ctx)
+
+    def _count_drops(self, tr: Translator, what: str, actions: list[Action],
+                     ctx: TranslatorContext) -> list[Action]:
+        """Count and log what the translator dropped; pass the rest on."""
+        if not any(isinstance(a, Dropped) for a in actions):
+            return actions
+        who = _name(tr)
+        vehicle = ctx.vehicle.vehicle_id if ctx.vehicle is not None else "-"
+        for action in actions:
+            if isinstance(action, Dropped):
+                self.drops[(who, action.reason)] += 1
+                self._log.warning(f"drop {who} {action.reason}", ctx.now,
+                                  "translator %s dropped part of %s from %s: %s%s", who, what,
+                                  vehicle, action.reason,
+                                  f" ({action.detail})" if action.detail else "")
+        return [a for a in actions if not isinstance(a, Dropped)]
 
     def route(self, name: str, ctx: TranslatorContext) -> Translator | None:
         """The translator a message ``name`` in ``ctx`` goes to (None: nobody takes it)."""
@@ -170,16 +189,18 @@ class TranslationManager:
         if tr is None:
             return []
         try:
-            return list(tr.on_sample(topic, sample, ctx))
+            actions = list(tr.on_sample(topic, sample, ctx))
         except Exception as exc:
             return self._failed(tr, f"DDS {topic}", exc, ctx)
+        return self._count_drops(tr, f"DDS {topic}", actions, ctx)
 
     def on_vehicle(self, change: str, ctx: TranslatorContext) -> list[Action]:
         """Tell every translator that the vehicle in ``ctx`` changed."""
         out: list[Action] = []
         for tr in self.translators:
             try:
-                out.extend(tr.on_vehicle(change, ctx))
+                out.extend(self._count_drops(tr, f"vehicle {change}",
+                                             list(tr.on_vehicle(change, ctx)), ctx))
             except Exception as exc:
                 self._failed(tr, f"vehicle {change}", exc, ctx)
         return out

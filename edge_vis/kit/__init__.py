@@ -8,7 +8,8 @@ A translator plugin imports from here and from nothing else of edge-vis::
   :class:`TranslatorContext` (time, relay, vehicles, live catalogue), :class:`VehicleView`,
   :class:`ReportSpec`, :func:`derive_vehicle_id`, :class:`JausAddress`;
 * the actions a hook returns (:mod:`edge_vis.kit.actions`): :class:`Publish`,
-  :class:`Command`, :class:`DeclareVehicle`, :class:`EmergencyRequest` (the engine's
+  :class:`Command`, :class:`DeclareVehicle`, :class:`EmergencyRequest`, :class:`Dropped`
+  (the engine's
   own :class:`SendMessage` and :class:`ShutdownComplete` live beside them);
 * the rule vocabulary (:mod:`edge_vis.kit.rules`): report and command tables that
   :class:`RuleTranslator` runs and ``edge-vis mappings`` prints, and :func:`path_problem`
@@ -30,6 +31,7 @@ from edge_vis.kit.actions import (
     Action,
     Command,
     DeclareVehicle,
+    Dropped,
     EmergencyRequest,
     Publish,
     SendMessage,
@@ -78,6 +80,7 @@ from edge_vis.kit.rules import (
     clamp,
     code_of,
     declarations,
+    decode_as,
     describe_rules,
     extract,
     flags,
@@ -110,6 +113,7 @@ __all__ = [
     "Const",
     "DeclareVehicle",
     "DecodeError",
+    "Dropped",
     "Each",
     "EmergencyRequest",
     "EncodeError",
@@ -137,6 +141,7 @@ __all__ = [
     "clamp",
     "code_of",
     "declarations",
+    "decode_as",
     "derive_vehicle_id",
     "describe_rules",
     "extract",

@@ -10,13 +10,13 @@ The engine never performs anything itself: it returns these from
 * :class:`ShutdownComplete` - every goodbye message has been emitted (and answered, or
   waited for long enough); the runtime may close links.
 
-Translators return :class:`Publish`, :class:`Command`, :class:`DeclareVehicle` and
-:class:`EmergencyRequest`; the engine turns a ``Command`` into a ``SendMessage`` only when
-the operator holds control, the vehicle's component is controlled and ready, and the rate
-and lifespan allow it. A translator returns a ``SendMessage`` itself only for a follow-up
-query a report calls for (the elements of a list that changed, the plan of a new mission),
-made by :func:`follow_up_query`: a query needs no control, and the link paces and queues
-it like the engine's own queries.
+Translators return :class:`Publish`, :class:`Command`, :class:`DeclareVehicle`,
+:class:`EmergencyRequest` and :class:`Dropped`; the engine turns a ``Command`` into a
+``SendMessage`` only when the operator holds control, the vehicle's component is controlled
+and ready, and the rate and lifespan allow it. A translator returns a ``SendMessage``
+itself only for a follow-up query a report calls for (the elements of a list that changed,
+the plan of a new mission), made by :func:`follow_up_query`: a query needs no control, and
+the link paces and queues it like the engine's own queries.
 """
 
 from __future__ import annotations
@@ -128,6 +128,16 @@ class EmergencyRequest:
 
 
 @dataclass(frozen=True, slots=True)
+class Dropped:
+    """Part of a message a translator could not use, and why (``reason``: short and fixed,
+    it names a counter: ``"range compression bzip2: undecodable"``). The relay counts it per
+    translator and reason and logs it; the rest of the message is translated."""
+
+    reason: str
+    detail: str = ""
+
+
+@dataclass(frozen=True, slots=True)
 class ShutdownComplete:
     """The engine has said goodbye to every vehicle; links may close."""
 
@@ -142,4 +152,4 @@ def follow_up_query(destination: JausAddress, name: str,
 
 
 Action = Union[SendMessage, Publish, Command, DeclareVehicle, EmergencyRequest,  # noqa: UP007
-               ShutdownComplete]
+               Dropped, ShutdownComplete]

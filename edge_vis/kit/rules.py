@@ -42,7 +42,9 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Union
 
+from edge_vis.codec.bodies import compile_type
 from edge_vis.codec.types import BitField, List, Record, VarFormat, Variant
+from edge_vis.errors import DecodeError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.actions import Action, Command, Publish
 from edge_vis.kit.contract import Binding, ReportSpec, Translator, TranslatorContext
@@ -252,6 +254,43 @@ def type_at(body: Record, path: str) -> Any:
         else:
             return None  # a sub-field of a bit field: an integer
     return node
+
+
+def decode_as(catalogue: Any, message: str, type_name: str, data: bytes) -> Any:
+    """``data`` decoded as the type named ``type_name`` (its JSIDL name) in the definition
+    of ``message``: for a JAUS value carried as bytes inside another (the JSIDL's
+    ``field_format``: compressed scan points are a ``RangeSensorDataPointList``). Raises
+    ValueError when no such type is there or the bytes do not fit it exactly."""
+    field_type = named_type(catalogue.by_name(message).body, type_name)
+    if field_type is None:
+        raise ValueError(f"{message} has no type named {type_name!r}")
+    try:
+        value, end = compile_type(field_type).decode(data, 0)
+    except DecodeError as exc:
+        raise ValueError(f"not a {type_name}: {exc}") from None
+    if end != len(data):
+        raise ValueError(f"{len(data) - end} bytes left over after the {type_name}")
+    return value
+
+
+def named_type(node: Any, name: str) -> Any:
+    """The first record, list or variant named ``name`` (its JSIDL name) in the field type
+    ``node`` (a message body), depth first; None when there is none."""
+    if getattr(node, "name", None) == name and isinstance(node, Record | List | Variant):
+        return node
+    if isinstance(node, Record):
+        children = [f.type for f in node.fields]
+    elif isinstance(node, Variant):
+        children = [a.type for a in node.alternatives]
+    elif isinstance(node, List):
+        children = [node.element]
+    else:
+        return None
+    for child in children:
+        found = named_type(child, name)
+        if found is not None:
+            return found
+    return None
 
 
 def _path_problem(node: Any, steps: list[str], done: list[str]) -> str:

@@ -8,7 +8,8 @@ the other way round: the loss policy (:func:`is_loss`) reads fields, not text.
 
 A loss is something the relay had accepted and then failed to pass on: a publish, send,
 encode or delivery error, a link or queue drop other than refused input (garbage on the
-wire is refused, not lost), and a report a translator failed on.
+wire is refused, not lost), and a report a translator failed on. What a translator drops
+on purpose (a part of a message it cannot use, with its reason) is refused input too.
 
 :class:`LogLimiter` keeps the log readable under a flood of one fault (bad input from the
 network, a translator that raises on every message): a few lines per key and minute,
@@ -37,6 +38,7 @@ class Kind(Enum):
     LINK_DROP = "link drop"
     PUBLISHED = "published"
     TRANSLATOR_ERROR = "translator error"
+    TRANSLATOR_DROP = "translator drop"
 
 
 @dataclass(frozen=True, order=True, slots=True)
@@ -57,6 +59,8 @@ class Tally:
             return f"published {self.subject}"
         if self.kind is Kind.TRANSLATOR_ERROR:
             return f"translator {self.subject} {self.name}"
+        if self.kind is Kind.TRANSLATOR_DROP:
+            return f"translator {self.subject} dropped: {self.name}"
         return self.name
 
 

@@ -452,6 +452,8 @@ class Runtime:
                                                 self.engine.counters.items()}))
             for name, count in self.engine.manager.errors.items():
                 out[Tally(Kind.TRANSLATOR_ERROR, "errors", name)] = count
+            for (name, reason), count in self.engine.manager.drops.items():
+                out[Tally(Kind.TRANSLATOR_DROP, reason, name)] = count
         for sample in self.link_status():
             name = sample["link"]
             out.update(tallies_of(Kind.LINK_TRAFFIC, {

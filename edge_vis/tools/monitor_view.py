@@ -24,6 +24,7 @@ READ_TOPICS: tuple[str, ...] = (
     "ControlStatus", "MissionStatus", "LinkStatus", "RangeScan", "ImageProduct",
     "EnvironmentalData", "TransferStatus", "VehicleClock",
     "VehiclePlan", "SpoolerStatus",
+    "SensorState",
 )
 #: command topics the monitor writes
 WRITE_TOPICS: tuple[str, ...] = ("ControlRequest", "WrenchEffortCommand", "WaypointPlan",
@@ -96,6 +97,8 @@ class VehicleRow:
     emergency_operator: str = ""
     emergency_reason: str = ""
     last_rejection: str = ""
+    #: camera (sensor id) -> its video stream state as last asked for (PLAY, PAUSE, STOP)
+    streams: dict[int, str] = field(default_factory=dict)
     samples: Counter[str] = field(default_factory=Counter)
     rates: dict[str, RateMeter] = field(default_factory=dict)
     last_seen: float = 0.0
@@ -209,6 +212,10 @@ class FleetView:
         row.last_image = s.get("file_name", "") or str(s.get("image_id", ""))
         row.last_image_size = int(s.get("size_bytes", 0) or 0)
 
+    def _on_SensorState(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        if s.get("stream"):
+            row.streams[int(s.get("sensor_id", 0) or 0)] = str(s["stream"])
+
     def _on_EnvironmentalData(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
         if s.get("depth") is not None:
             row.depth = s["depth"]
@@ -268,6 +275,9 @@ class FleetView:
             if row.last_image:
                 size = f" ({row.last_image_size // 1024} KiB)" if row.last_image_size else ""
                 extra.append(f"image {row.last_image}{size}")
+            if row.streams:
+                extra.append("camera " + " ".join(f"{sensor}:{state.lower()}" for sensor, state
+                                                  in sorted(row.streams.items())))
             if row.went_offline:
                 extra.append(f"dropouts {row.went_offline} recovered {row.recovered}")
             held = [f"{c} by {'relay' if relay else who}({authority})"

@@ -83,6 +83,7 @@ def test_kinds_decide_direction() -> None:
         "VectorCommand", "AccelerationLimitCommand", "PoseCommand", "EmergencyCommand",
         "ManagementCommand",
         "PlanQuery", "PathSegmentPlan", "MissionSpoolCommand", "ManipulatorPlan",
+        "SensorCommand",
     }
     assert registry.get("EmergencyCommand").kind is TopicKind.EMERGENCY
     assert registry.get("VehicleClock").kind is TopicKind.STATE

@@ -143,8 +143,9 @@ def test_environment_scans_and_still_images(domain_id: int, partition: str) -> N
                     parts[c["chunk_index"]] = c["data"]
         assert b"".join(parts[i] for i in sorted(parts)) == IMAGE
 
-    asyncio.run(relay_with(peer, 41, domain_id, partition, body,
-                           extra={"report_rates": {"ReportStillImageData": 2.0}}))
+    # periodic stills are off unless the profile asks for them
+    asyncio.run(relay_with(peer, 41, domain_id, partition, body, extra={
+        "translators": {"environment": {"still_image_rate": 2.0}}}))
 
 
 # ------------------------------------------------------------------------------ manipulator

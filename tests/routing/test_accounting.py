@@ -36,6 +36,9 @@ from edge_vis.routing.traffic import QueueDrop
          "link radio dropped: malformed: bad CRC", False),
         (Tally(Kind.PUBLISHED, "samples", "GlobalPose"), "published GlobalPose", False),
         (Tally(Kind.TRANSLATOR_ERROR, "errors", "ugv"), "translator ugv errors", True),
+        # input a translator cannot use, dropped on purpose with its reason: refused
+        (Tally(Kind.TRANSLATOR_DROP, "range compression bzip2: undecodable", "environment"),
+         "translator environment dropped: range compression bzip2: undecodable", False),
     ],
 )
 def test_each_kind_of_count_is_labelled_and_classed(tally: Tally, label: str,

@@ -36,6 +36,7 @@ MISSION_SPOOLER = "urn:jaus:jss:missionSpooler:MissionSpooler"
 RANGE_SENSOR = ENV + "RangeSensor"
 VISUAL_SENSOR = ENV + "VisualSensor"
 STILL_IMAGE = ENV + "StillImage"
+DIGITAL_VIDEO = ENV + "DigitalVideo"
 VENDOR_DISCOVERY = UUV + "VendorDiscovery"
 OCEAN_ENVIRONMENT = UUV + "OceanEnvironmentSensor"
 ATR_NOTIFIER = UUV + "AtrImageNotifier"
@@ -64,6 +65,7 @@ UGV_LAYOUT: tuple[ComponentSpec, ...] = (
     )),
     ComponentSpec(3, "Sensors", (
         TRANSPORT, EVENTS, ACCESS_CONTROL, RANGE_SENSOR, VISUAL_SENSOR, STILL_IMAGE,
+        DIGITAL_VIDEO,
     )),
 )
 

@@ -49,7 +49,7 @@ from edge_vis.catalogue import Catalogue, Message, default_catalogue
 from edge_vis.errors import DecodeError, EncodeError
 from edge_vis.jaus.address import BROADCAST, JausAddress
 from edge_vis.tools.sim import components as svc
-from edge_vis.tools.sim import local_segments, scripted, self_report, spooling
+from edge_vis.tools.sim import local_segments, scripted, self_report, sensing_control, spooling
 from edge_vis.tools.sim.components import ComponentSpec
 from edge_vis.tools.sim.events import EVERY_CHANGE, PERIODIC, EventTable, Subscription
 from edge_vis.tools.sim.kinematics import Motion, clamp
@@ -135,6 +135,7 @@ class SimVehicle:
         self.effort: dict[str, float] = {}
         self.waypoints = WaypointList()
         self.spooler = spooling.Spooler()
+        self.sensing = sensing_control.SensingState()
         self.counters: Counter[str] = Counter()
         self.reboots = 0
         self._physics_time = start
@@ -981,6 +982,9 @@ _QUERIES: dict[str, tuple[str, str, Builder]] = {
     "QueryOceanEnvironment": (svc.OCEAN_ENVIRONMENT, "ReportOceanEnvironment",
                               _sensor(Sensors.ocean_environment)),
 }
+
+_HANDLERS.update(sensing_control.HANDLERS)
+_QUERIES.update(sensing_control.QUERIES)
 
 #: reports whose optional fields follow the query's presence vector
 _PV_FILTERED = frozenset({"ReportGlobalPose", "ReportLocalPose", "ReportVelocityState",
