@@ -140,15 +140,18 @@ class TranslationManager:
     def on_message(self, name: str, fields: Mapping[str, Any],
                    ctx: TranslatorContext) -> list[Action]:
         """Give a JAUS message to the translator whose claim matches it most closely (its
-        message set, ``ctx.service_set``, and the services of its sender, ``ctx.source``)."""
-        tr = self.route(name, ctx)
-        if tr is None:
-            return []
-        try:
-            actions = list(tr.on_message(name, fields, ctx))
-        except Exception as exc:
-            return self._failed(tr, f"JAUS {name}", exc, ctx)
-        return self._count_drops(tr, f"JAUS {name}", actions, ctx)
+        message set, ``ctx.service_set``, and the services of its sender, ``ctx.source``);
+        to each of them when several match equally (one component offering the services
+        of two: its List Manager's reports concern both)."""
+        out: list[Action] = []
+        for tr in self.route(name, ctx):
+            try:
+                actions = list(tr.on_message(name, fields, ctx))
+            except Exception as exc:
+                self._failed(tr, f"JAUS {name}", exc, ctx)
+                continue
+            out += self._count_drops(tr, f"JAUS {name}", actions, ctx)
+        return out
 
     def _count_drops(self, tr: Translator, what: str, actions: list[Action],
                      ctx: TranslatorContext) -> list[Action]:
@@ -166,21 +169,21 @@ class TranslationManager:
                                   f" ({action.detail})" if action.detail else "")
         return [a for a in actions if not isinstance(a, Dropped)]
 
-    def route(self, name: str, ctx: TranslatorContext) -> Translator | None:
-        """The translator a message ``name`` in ``ctx`` goes to (None: nobody takes it)."""
+    def route(self, name: str, ctx: TranslatorContext) -> list[Translator]:
+        """The translators a message ``name`` in ``ctx`` goes to: the claims matching it
+        most closely (none: nobody takes it)."""
         claims = self.claims.get(name)
         if not claims:
-            return None
+            return []
         if len(claims) == 1 and not claims[0][0].specificity:
-            return claims[0][1]
+            return [claims[0][1]]
         services: tuple[str, ...] = ()
         if ctx.vehicle is not None and ctx.source is not None:
             services = tuple(uri for uri, _ in ctx.vehicle.components.get(ctx.source, ()))
-        matching = [(b.specificity, i, tr) for i, (b, tr) in enumerate(claims)
+        matching = [(b.specificity, tr) for b, tr in claims
                     if b.matches(ctx.service_set, services)]
-        if not matching:
-            return None
-        return max(matching, key=lambda m: (m[0], -m[1]))[2]
+        best = max((m[0] for m in matching), default=0)
+        return [tr for specificity, tr in matching if specificity == best]
 
     def on_sample(self, topic: str, sample: Mapping[str, Any],
                   ctx: TranslatorContext) -> list[Action]:

@@ -47,7 +47,9 @@ class Reports:
             providers = vehicle.providers(spec.service)
             if not providers:
                 continue
-            key = (providers[0], spec.report)
+            # a report two sets define (ReportActiveElement) is one subscription per set
+            key = (providers[0], f"{spec.service_set}:{spec.report}" if spec.service_set
+                   else spec.report)
             sub = vehicle.subscriptions.get(key)
             if sub is None:
                 rate = state.profile.report_rate(spec.report, spec.rate, vehicle.profile)

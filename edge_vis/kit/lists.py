@@ -22,6 +22,7 @@ translator whose drivers sent them, so two translators with lists share the core
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -42,6 +43,10 @@ ELEMENTS_PER_SET = 50
 #: element queries one component has outstanding at a time: a long list is read in
 #: batches, each asked for when the previous answers arrive, so it never floods a radio
 QUERIES_IN_FLIGHT = 8
+#: the request IDs of every loader: two translators loading lists into one component (a
+#: List Manager serving a waypoint list driver and a manipulator list driver) never wait
+#: for the same ID
+_REQUEST_IDS = itertools.count(1)
 
 
 @dataclass(frozen=True, slots=True)
@@ -126,7 +131,6 @@ class ListLoader:
 
     def __init__(self) -> None:
         self.loads: dict[str, ListLoad] = {}
-        self._request_id = 0
 
     def load(self, key: str, vehicle_id: str, operator_id: str, driver: ListDriver,
              element: str, element_fields: Sequence[Mapping[str, Any]], catalogue: Any,
@@ -159,8 +163,7 @@ class ListLoader:
         if load.steps:
             name, fields = load.steps.pop(0)
             load.pending = name
-            self._request_id = (self._request_id + 1) % 256
-            load.request_id = self._request_id
+            load.request_id = next(_REQUEST_IDS) % 256
             fields = {"request_id_rec": {"request_id": load.request_id}, **fields}
         else:
             name, fields = "ExecuteList", dict(load.execute())
