@@ -450,14 +450,14 @@ class ManipulatorLists:
                 if ctx.source is not None:  # read back what the driver now holds
                     actions += self.held.refresh(vid, ctx.source)
             return actions
-        if name == "ReportActiveElement" and plan.state in ("EXECUTING", "PENDING"):
+        if name == "ReportActiveElement" and plan.state == "EXECUTING":
             uid = int(fields.get("element_uid", 0))
-            if 1 <= uid <= plan.count and plan.state == "EXECUTING":
+            if 1 <= uid <= plan.count:
                 plan.active = uid - 1
-            elif uid == 0 and plan.state == "EXECUTING":
+            elif uid == 0:
                 plan.active, plan.state = -1, "COMPLETED"
             else:
-                return []
+                return []  # not an element of this plan
             return [self._status(vid, ctx)]
         return []
 

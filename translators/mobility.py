@@ -667,11 +667,9 @@ def _held_element(message: str, fields: Mapping[str, Any], uid: int, previous: i
 def _vehicle_plan(vehicle_id: str, component: JausAddress, held: HeldList,
                   ctx: TranslatorContext) -> Publish:
     """``VehiclePlan``: the plan one component holds, as read back so far."""
-    elements = held.listed()
     return Publish("VehiclePlan", {
         "vehicle_id": vehicle_id, "component": str(component), "element_count": held.count,
-        "elements": elements,
-        "complete": len(elements) == len(held.order) and held.count == len(held.order),
+        "elements": held.listed(), "complete": held.complete(),
         "current": held.current or plan_element("", {}), "timestamp_ms": ctx.timestamp_ms})
 
 

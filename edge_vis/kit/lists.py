@@ -243,10 +243,10 @@ class ListReadBack:
     def on_current(self, current: dict[str, Any], ctx: TranslatorContext) -> list[Action]:
         """The driver at ``ctx.source`` reported its current target (shown as ``current``)."""
         held = self._held(ctx)
-        if held is None:
+        if held is None or ctx.source is None:
             return []
         held.current = current
-        return [*self._ask(ctx.source, held), self._show(ctx, held)]  # type: ignore[arg-type]
+        return [*self._ask(ctx.source, held), self._show(ctx, held)]
 
     def refresh(self, vehicle_id: str, component: JausAddress) -> list[Action]:
         """Read ``component``'s whole list again (its elements may have been replaced)."""
