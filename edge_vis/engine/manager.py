@@ -12,7 +12,8 @@ message set, the services of its sender): two translators may take one name when
 bindings cannot both match, and a message goes to the claim that matches it most closely. Several
 translators may *publish* one topic (still images and ATR images are both image
 products): a DDS topic has many writers, each keyed by its vehicle. The engine itself owns
-the ``ControlRequest`` topic (operator arbitration).
+the ``ControlRequest``, ``HandoffRequest`` and ``HandoffResponse`` topics (operator
+arbitration).
 
 A translator is a plugin, so it may fail: an exception from any hook, on either
 direction, is caught here, counted per translator (:attr:`TranslationManager.errors`,
@@ -38,7 +39,7 @@ log = logging.getLogger(__name__)
 
 ENGINE = "engine"
 #: Topics the engine reads itself.
-ENGINE_SUBSCRIBES = ("ControlRequest",)
+ENGINE_SUBSCRIBES = ("ControlRequest", "HandoffRequest", "HandoffResponse")
 
 
 class TranslationManager:

@@ -86,6 +86,8 @@ class EngineState:
         #: a subscription started or stopped polling: the rates must be planned again
         self.plan_dirty = False
         self.shutting_down = False
+        #: (topic, instance key) -> the latest merged sample (Publish with ``merge``)
+        self.merged: dict[tuple[str, tuple[Any, ...]], dict[str, Any]] = {}
         #: ShutdownComplete was emitted: the engine takes no more input
         self.done = False
         self._catalogue = catalogue

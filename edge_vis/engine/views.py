@@ -9,15 +9,19 @@ report path). Status displays get an :class:`EngineSnapshot`.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 
 from edge_vis.engine.access import jaus_control
 from edge_vis.engine.control import EMERGENCY
+from edge_vis.engine.handoff_requests import handoff_view
 from edge_vis.engine.state import EngineState
 from edge_vis.engine.vehicle import Vehicle
 from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.contract import TranslatorContext, VehicleView
+
+NAN = math.nan
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,6 +95,11 @@ class Views:
             emergency=vehicle.estop is not None or EMERGENCY in vehicle.statuses.values(),
             emergency_operator=vehicle.estop.operator_id if vehicle.estop else "",
             emergency_reason=vehicle.estop.reason if vehicle.estop else "",
+            handoffs=tuple(handoff_view(e) for e in vehicle.handoffs.entries),
+            handoff_timeout=state.profile.control.handoff_timeout,
+            handoff_reassert_timeout=state.profile.control.handoff_reassert_timeout,
+            vehicle_handoff_timeout=(vehicle.handoff_timeouts[0]
+                                     if vehicle.handoff_timeouts[0] is not None else NAN),
             dialects=self._state.dialects(vehicle),
         )
 

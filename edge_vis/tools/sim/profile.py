@@ -19,6 +19,10 @@ vehicle is ``name``, ``subsystem`` and ``link``::
     jts_example = false                       # ignore CreateEvent/QueryTimeout, INITIALIZE forever
     malformed_rate = 0.2                      # malformed frames per second
 
+A ``ugv`` with ``iop = true`` has a fourth component offering the IOP and UGV services
+(hand-off, cost map and no-go zones, CBRN, digital resources, skid-steer and Ackermann
+drivers, capabilities, a battery): :mod:`edge_vis.tools.sim.iop_sim`.
+
 A ``uuv`` does not implement JAUS Discovery: it announces itself with the vendor
 ``VendorHello`` message and reports ocean environment and ATR image notices unsolicited;
 with ``atr_dir`` set, each announced ATR image is also written there as ``atr-<id>.png``
@@ -151,6 +155,8 @@ class VehicleSpec:
     atr_period: float = setting(15.0, ge=0.0, unit="s")
     bulk_image_port: int = setting(0, ge=0, le=65535)
     atr_dir: str = ""
+    #: ugv: a fourth component with the IOP and UGV services (edge_vis.tools.sim.iop_sim)
+    iop: bool = False
     faults: FaultSpec = field(default_factory=FaultSpec)
     #: custom: the component id of its one component
     component: int = setting(1, ge=1, le=254)

@@ -49,7 +49,14 @@ from edge_vis.catalogue import Catalogue, Message, default_catalogue
 from edge_vis.errors import DecodeError, EncodeError
 from edge_vis.jaus.address import BROADCAST, JausAddress
 from edge_vis.tools.sim import components as svc
-from edge_vis.tools.sim import local_segments, scripted, self_report, sensing_control, spooling
+from edge_vis.tools.sim import (
+    iop_sim,
+    local_segments,
+    scripted,
+    self_report,
+    sensing_control,
+    spooling,
+)
 from edge_vis.tools.sim.components import ComponentSpec
 from edge_vis.tools.sim.events import EVERY_CHANGE, PERIODIC, EventTable, Subscription
 from edge_vis.tools.sim.kinematics import Motion, clamp
@@ -122,6 +129,8 @@ class SimVehicle:
         self.rng = random.Random(spec.seed)
         self.components: dict[JausAddress, Component] = {}
         self.layout = svc.layout(spec.kind)
+        if spec.iop and spec.kind == "ugv":
+            self.layout = (*self.layout, iop_sim.COMPONENT)
         if spec.kind == "custom":
             services = spec.services or scripted.services_of(self.catalogue, [
                 *([spec.hello.message] if spec.hello else []),
@@ -225,6 +234,8 @@ class SimVehicle:
             return out
         for comp in self.components.values():
             out += self._control_timeout(comp, now)
+            if comp.offers(iop_sim.ENHANCED_ACCESS_CONTROL):
+                out += iop_sim.expire(self, comp, now)
             if comp.events is not None:
                 for sub in comp.events.expire(now):
                     log.info("%s: event %d (%s) of %s expired", self.name, sub.event_id,
@@ -356,7 +367,8 @@ class SimVehicle:
     def _leave_ready(self, comp: Component) -> None:
         if comp.state == READY:
             comp.state = STANDBY
-        if comp.offers(svc.PRIMITIVE_DRIVER) or comp.offers(svc.WAYPOINT_LIST_DRIVER):
+        if any(comp.offers(s) for s in (svc.PRIMITIVE_DRIVER, svc.WAYPOINT_LIST_DRIVER,
+                                        iop_sim.SKID_STEER, iop_sim.ACKERMANN)):
             self._halt()
         if comp.offers(svc.MISSION_SPOOLER):
             self.spooler.lost_control()
@@ -985,6 +997,9 @@ _QUERIES: dict[str, tuple[str, str, Builder]] = {
 
 _HANDLERS.update(sensing_control.HANDLERS)
 _QUERIES.update(sensing_control.QUERIES)
+# the IOP and UGV services of a vehicle with ``iop = true`` (:mod:`edge_vis.tools.sim.iop_sim`)
+_HANDLERS.update(iop_sim.HANDLERS)
+_QUERIES.update(iop_sim.QUERIES)
 
 #: reports whose optional fields follow the query's presence vector
 _PV_FILTERED = frozenset({"ReportGlobalPose", "ReportLocalPose", "ReportVelocityState",
