@@ -388,7 +388,8 @@ class ManipulatorLists:
     SetJointPositions or SetEndEffectorPose elements, each after the previous was
     confirmed, then the manipulator's ExecuteList from the first element); its progress
     is the driver's ReportActiveElement (0x461E): target ``uid - 1`` while executing,
-    COMPLETED when it reports 0 after executing. The lists are read back as mobility's
+    COMPLETED when it reports 0 after it reported one of the plan's targets (a 0 reported
+    before then was sent before ExecuteList arrived). The lists are read back as mobility's
     plans are (ReportElementList events, QueryElement), and again after a plan executes.
     """
 
@@ -454,10 +455,12 @@ class ManipulatorLists:
             uid = int(fields.get("element_uid", 0))
             if 1 <= uid <= plan.count:
                 plan.active = uid - 1
-            elif uid == 0:
+            elif uid == 0 and plan.active >= 0:
                 plan.active, plan.state = -1, "COMPLETED"
             else:
-                return []  # not an element of this plan
+                # not an element of this plan, or none active yet: a report from before
+                # ExecuteList reached the arm, not the end of the plan
+                return []
             return [self._status(vid, ctx)]
         return []
 

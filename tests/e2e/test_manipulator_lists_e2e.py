@@ -42,13 +42,15 @@ class ArmListPeer(SetPeer):
     """A manipulator whose joint-position list driver takes commands from its controller
     only: SetElement inserts linked elements (a previous UID it does not hold is refused),
     DeleteElement 65535 empties the list, ExecuteList goes through the elements one every
-    :data:`STEP` seconds, reporting the active one (0 when done)."""
+    :data:`STEP` seconds, reporting the active one (0 when done) at once to an every-change
+    event, as well as periodically."""
 
     def __init__(self, address: JausAddress) -> None:
         super().__init__(address, SERVICES, {}, name="Arm", catalogue=arm_catalogue(),
                          version=(2, 0))
         self.elements: dict[int, dict[str, Any]] = {}
         self.active = 0
+        self.changes = 0
         self.reports = {
             "QueryElementList": lambda f: ("ReportElementList", {"element_list": [
                 {"element_uid": uid} for uid in self.order()]}),
@@ -105,9 +107,22 @@ class ArmListPeer(SetPeer):
             self.send(src, "ConfirmElementRequest", {"request_id": request_id})
 
     async def _run(self) -> None:
+        self._active_changed()
         while self.active:
             await asyncio.sleep(STEP)
             self.active = self.elements[self.active]["next_uid"]
+            self._active_changed()
+
+    def _active_changed(self) -> None:
+        """An every-change event fires when the active element changes, not only on the
+        periodic tick."""
+        for event_id, (dest, query, _fields, _rate) in self.events.items():
+            if query == "QueryActiveElement":
+                report = self.catalogue.encode("ReportActiveElement",
+                                               {"element_uid": self.active})
+                self.changes += 1
+                self.send_payload(dest, self.catalogue.wrap_event(event_id, self.changes % 256,
+                                                                  report))
 
 
 def test_a_joint_position_plan_is_loaded_executed_and_read_back(domain_id: int,

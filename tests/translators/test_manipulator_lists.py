@@ -232,7 +232,8 @@ def test_plans_that_cannot_run_fail_with_a_reason(why: str, sample: dict[str, An
 PROGRESS = [
     ([1, 2, 3, 0], [(0, "EXECUTING"), (1, "EXECUTING"), (2, "EXECUTING"), (-1, "COMPLETED")]),
     ([2, 9], [(1, "EXECUTING"), None]),  # a UID beyond the plan is not ours
-    ([0], [(-1, "COMPLETED")]),  # nothing active once executing: done
+    # none active before the arm reported a target: sent before ExecuteList arrived
+    ([0, 1, 0], [None, (0, "EXECUTING"), (-1, "COMPLETED")]),
 ]
 
 
