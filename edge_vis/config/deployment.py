@@ -312,9 +312,18 @@ class BulkProfile:
     #: bit/s for forwarding (None: unlimited; 0 in the file means unlimited too)
     max_rate_bps: int | None = setting(None, key="max_rate", ge=0,
                                        convert=lambda v: v or None)
-    forward_lanes: int = setting(1, ge=1, le=16)
+    #: parallel UDT connections per forwarded file; 0 adapts to the radio's loss and delay
+    forward_lanes: int = setting(0, ge=0, le=16)
     keys: Path | None = None
     publish_data: bool = True
+    #: vehicle id -> HOST:PORT of its image server (``serve-images``); "*" for any other.
+    #: An image such a vehicle announces is fetched from there.
+    sources: Mapping[str, str] = setting(factory=dict, check=_host_port)
+    #: which announced image to fetch first
+    fetch_priority: str = setting("confidence", choices=("confidence", "oldest", "newest"))
+    #: bit/s the radio gives bulk data and JAUS together (0: no budget); fetches keep to
+    #: what the relay's JAUS traffic leaves of it
+    fetch_budget: int = setting(0, ge=0, unit="bit/s")
 
 
 @dataclass(frozen=True, slots=True)

@@ -777,6 +777,9 @@ class ImageProduct(IdlStruct, typename="edge_vis::ImageProduct"):
     format: str = ""
     capture_time_ms: int64 = 0
     targets: sequence[AtrTarget] = field(default_factory=list)
+    #: a PNG of at most 96 px a side, made by the receiver that verified the file
+    #: (empty for formats the standard library cannot decode: see links/udt/thumbnail.py)
+    thumbnail_png: sequence[uint8] = field(default_factory=list)
 
 
 @dataclass

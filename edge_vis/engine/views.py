@@ -70,6 +70,7 @@ class Views:
         notes = tuple(f"{a}: {c.note}" for a, c in sorted(vehicle.controls.items()) if c.note)
         last_ms = (int((vehicle.last_seen + state.wall_offset) * 1000)
                    if vehicle.last_seen is not None else 0)
+        dialects = state.dialects(vehicle)
         return VehicleView(
             vehicle_id=vehicle.vehicle_id,
             subsystem=vehicle.subsystem,
@@ -100,7 +101,8 @@ class Views:
             handoff_reassert_timeout=state.profile.control.handoff_reassert_timeout,
             vehicle_handoff_timeout=(vehicle.handoff_timeouts[0]
                                      if vehicle.handoff_timeouts[0] is not None else NAN),
-            dialects=self._state.dialects(vehicle),
+            dialects=tuple(dialects),
+            base_codes=getattr(dialects, "base", frozenset()),
         )
 
     def context(self, vehicle: Vehicle | None, now: float,

@@ -209,6 +209,13 @@ class VehicleView:
     #: the message dialects it speaks (``manipulator-1.0``, ``iop``): its messages are
     #: decoded and encoded with those definitions
     dialects: tuple[str, ...] = ()
+    #: codes it reads in the base definition although one of ``dialects`` defines them
+    #: (it carries them in a service of the base definition's version)
+    base_codes: frozenset[int] = frozenset()
+
+    def speaks(self, dialect: str, code: int) -> bool:
+        """Whether message ``code`` to or from it is read in ``dialect``'s definition."""
+        return dialect in self.dialects and code not in self.base_codes
 
 
 @dataclass(frozen=True, slots=True)

@@ -27,6 +27,9 @@ READ_TOPICS: tuple[str, ...] = (
     "SensorState",
     "HandoffStatus",
 )
+#: manipulators and pan-tilts: joint positions, labelled with the names their
+#: specifications give (joint i when a vehicle names none, as manipulator v1.0 does)
+READ_TOPICS += ("JointState", "JointSpecification")
 #: command topics the monitor writes
 WRITE_TOPICS: tuple[str, ...] = ("ControlRequest", "WrenchEffortCommand", "WaypointPlan",
                                  "EmergencyCommand", "HandoffRequest", "HandoffResponse")
@@ -105,6 +108,9 @@ class VehicleRow:
     samples: Counter[str] = field(default_factory=Counter)
     rates: dict[str, RateMeter] = field(default_factory=dict)
     last_seen: float = 0.0
+    #: per device (manipulator, pan_tilt): joint names, and (value, unit) per joint
+    joint_names: dict[str, list[str]] = field(default_factory=dict)
+    joints: dict[str, list[tuple[float, str]]] = field(default_factory=dict)
 
     def rate(self, now: float, topics: Iterable[str] = TELEMETRY) -> float:
         """Telemetry samples per second for this vehicle."""
@@ -229,6 +235,16 @@ class FleetView:
         if s.get("depth") is not None:
             row.depth = s["depth"]
 
+    def _on_JointSpecification(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        row.joint_names[str(s.get("device", ""))] = [str(n) for n in s.get("names") or ()]
+
+    def _on_JointState(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        if s.get("quantity") == "position":
+            units = list(s.get("units") or ())
+            row.joints[str(s.get("device", ""))] = [
+                (float(v), units[i] if i < len(units) else "")
+                for i, v in enumerate(s.get("values") or ())]
+
     # -- output ---------------------------------------------------------------------------
 
     def ordered(self) -> list[VehicleRow]:
@@ -297,6 +313,7 @@ class FleetView:
                 extra.append(f"clock {row.clock_offset:+.2f} s")
             if extra:
                 lines.append(("   " + ", ".join(extra))[:width])
+            lines += [line[:width] for line in _joint_lines(row)]
             for request_id, requester, authority, state, why in row.handoffs:
                 if state in ("PENDING", "DEFERRED"):
                     reason = f" '{why}'" if why else ""
@@ -334,6 +351,18 @@ class FleetView:
             "samples_per_topic": dict(sorted(self.samples.items())),
             "faults_recovered": sum(row.recovered for row in self.vehicles.values()),
         }
+
+
+def _joint_lines(row: VehicleRow) -> list[str]:
+    """One line per device with joints: each joint's name (or number) and position."""
+    out = []
+    for device, joints in sorted(row.joints.items()):
+        names = row.joint_names.get(device, [])
+        shown = [f"{names[i] if i < len(names) and names[i] else f'j{i + 1}'} "
+                 f"{value:.2f}{' ' + unit if unit else ''}"
+                 for i, (value, unit) in enumerate(joints)]
+        out.append(f"   {device.replace('_', '-')}: " + ", ".join(shown))
+    return out
 
 
 # -- operator commands --------------------------------------------------------------------
