@@ -223,6 +223,8 @@ class VehicleStatus(IdlStruct, typename="edge_vis::VehicleStatus"):
     #: the operator who set it through the relay ("" when set by another JAUS client)
     emergency_operator: str = ""
     emergency_reason: str = ""
+    #: the relay serving the vehicle (its ``RelayStatus.relay``)
+    relay: str = ""
 
 
 @dataclass
@@ -284,12 +286,15 @@ class MissionStatus(IdlStruct, typename="edge_vis::MissionStatus"):
 
 @dataclass
 class LinkStatus(IdlStruct, typename="edge_vis::LinkStatus"):
-    """Load of one radio link; ``vehicle_id`` is empty for a link shared by many vehicles."""
+    """Load of one radio link of one relay; ``vehicle_id`` is empty for a link shared by
+    many vehicles."""
 
     link: str
     key("link")
     vehicle_id: str = ""
     key("vehicle_id")
+    relay: str = ""
+    key("relay")
     up: bool = False
     budget_bps: float64 = 0.0
     measured_bps: float64 = 0.0
@@ -299,6 +304,48 @@ class LinkStatus(IdlStruct, typename="edge_vis::LinkStatus"):
     bytes_out: uint64 = 0
     messages_in: uint64 = 0
     messages_out: uint64 = 0
+    timestamp_ms: int64 = 0
+
+
+# -- relays sharing a domain (edge_vis.engine.duty) ---------------------------------------
+
+
+@dataclass
+class RelayLink(IdlStruct, typename="edge_vis::RelayLink"):
+    """One link of a relay and whether it is open."""
+
+    link: str = ""
+    up: bool = False
+
+
+@dataclass
+class RelayVehicle(IdlStruct, typename="edge_vis::RelayVehicle"):
+    """A vehicle a relay reaches: over which link, how well (``quality`` 0..1, the share of
+    liveness periods it was heard in; ``score`` adds the profile preference), whether this
+    relay serves it and, if so, for which operator it holds it."""
+
+    vehicle_id: str = ""
+    link: str = ""
+    quality: float64 = 0.0
+    score: float64 = 0.0
+    serving: bool = False
+    operator_id: str = ""
+    authority: uint8 = 0
+
+
+@dataclass
+class RelayStatus(IdlStruct, typename="edge_vis::RelayStatus"):
+    """One relay on the domain: its links and the vehicles it reaches and serves, every
+    ``heartbeat_ms``; ``leaving`` when it stops. Relays decide from these which one
+    serves each vehicle."""
+
+    relay: str
+    key("relay")
+    jaus_id: str = ""
+    links: sequence[RelayLink] = field(default_factory=list)
+    vehicles: sequence[RelayVehicle] = field(default_factory=list)
+    leaving: bool = False
+    heartbeat_ms: uint32 = 0
     timestamp_ms: int64 = 0
 
 
@@ -1637,6 +1684,7 @@ STRUCTS: tuple[type[IdlStruct], ...] = (
     SpoolerStatus,
     SpoolerMissions,
     LinkStatus,
+    RelayStatus,
     HealthStatus,
     RangeScan,
     SensorInfo,

@@ -94,6 +94,7 @@ _STANDARD_KINDS: dict[type[IdlStruct], TopicKind] = {
     model.SpoolerStatus: TopicKind.STATE,
     model.SpoolerMissions: TopicKind.STATE,
     model.LinkStatus: TopicKind.STATE,
+    model.RelayStatus: TopicKind.STATE,
     model.HealthStatus: TopicKind.STATE,
     model.RangeScan: TopicKind.TELEMETRY,
     model.SensorInfo: TopicKind.STATE,

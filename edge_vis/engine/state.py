@@ -92,6 +92,9 @@ class EngineState:
         #: a subscription started or stopped polling: the rates must be planned again
         self.plan_dirty = False
         self.shutting_down = False
+        #: several relays may reach a vehicle: only the vehicles whose ``serving`` is set
+        #: are served (:mod:`edge_vis.engine.duty`); False: every vehicle is
+        self.arbitrated = False
         #: (topic, instance key) -> the latest merged sample (Publish with ``merge``)
         self.merged: dict[tuple[str, tuple[Any, ...]], dict[str, Any]] = {}
         #: ShutdownComplete was emitted: the engine takes no more input
@@ -121,6 +124,11 @@ class EngineState:
         if dialects:
             return self.catalogue.encode(code, fields, dialects)
         return self.catalogue.encode(code, fields)
+
+    def serves(self, vehicle: Vehicle) -> bool:
+        """This relay serves ``vehicle``: creates its events, holds its control, sends its
+        commands and publishes its samples."""
+        return vehicle.serving or not self.arbitrated
 
     def dialects(self, vehicle: Vehicle) -> tuple[str, ...]:
         """The message dialects ``vehicle`` speaks (see :func:`dialects_of`)."""

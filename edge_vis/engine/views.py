@@ -96,6 +96,7 @@ class Views:
             emergency=vehicle.estop is not None or EMERGENCY in vehicle.statuses.values(),
             emergency_operator=vehicle.estop.operator_id if vehicle.estop else "",
             emergency_reason=vehicle.estop.reason if vehicle.estop else "",
+            relay=state.profile.relay_name if state.serves(vehicle) else "",
             handoffs=tuple(handoff_view(e) for e in vehicle.handoffs.entries),
             handoff_timeout=state.profile.control.handoff_timeout,
             handoff_reassert_timeout=state.profile.control.handoff_reassert_timeout,

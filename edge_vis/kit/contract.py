@@ -200,6 +200,8 @@ class VehicleView:
     emergency_reason: str = ""
     holders: tuple[HolderView, ...] = ()
     clock: ClockView | None = None
+    #: the relay serving it (this one's name while it does; see ``[serving]``)
+    relay: str = ""
     #: hand-off requests to the holder (open ones and the latest outcomes), the relay's
     #: hand-off and re-assert timeouts (s, 0 = none) and the vehicle's own (NaN: unknown)
     handoffs: tuple[HandoffView, ...] = ()
