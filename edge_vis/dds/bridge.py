@@ -641,11 +641,18 @@ class TopicReader:
         if depth is not None:
             qos = Qos(Policy.History.KeepLast(depth), base=qos)
         topic = bridge._topic(spec.name)
-        self._reader: DataReader[Any] = DataReader(bridge._subscriber, topic, qos=qos)
+        self._matches = match_listener()
+        self._reader: DataReader[Any] = DataReader(bridge._subscriber, topic, qos=qos,
+                                                   listener=self._matches)
         self._condition = ReadCondition(self._reader, _ANY_SAMPLE)
         self._waitset = WaitSet(bridge._participant)
         self._waitset.attach(self._condition)
         self._closed = False
+
+    def matched_writers(self) -> int:
+        """How many writers (local or remote) currently match this reader: a reader of a
+        volatile topic waits for its writer before that one writes."""
+        return len(matched_publications(self._reader, self._matches))
 
     def wait(self, timeout: float) -> bool:
         """Block up to ``timeout`` seconds for a sample; True if one is there."""
