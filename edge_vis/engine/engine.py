@@ -62,7 +62,7 @@ from edge_vis.engine.holders import Holders
 from edge_vis.engine.liveness import LIVENESS, MANAGEMENT, STATUS_EVERY, Liveness
 from edge_vis.engine.manager import TranslationManager
 from edge_vis.engine.rates import Rates
-from edge_vis.engine.reports import Reports
+from edge_vis.engine.reports import Reports, set_of
 from edge_vis.engine.state import EngineState, Handler, InnerCodec
 from edge_vis.engine.timer_pass import TimerPass
 from edge_vis.engine.vehicle import Vehicle
@@ -237,7 +237,7 @@ class Engine:
         if vehicle is None:
             # a custom hello: a translator may declare the vehicle from it
             if self.manager.handles(name):
-                ctx = self._views.context(None, now, source)
+                ctx = self._views.context(None, now, source, set_of(message))
                 self._apply(self.manager.on_message(name, fields, ctx), now)
                 if source.subsystem in state.vehicles:
                     self._liveness.seen(state.vehicles[source.subsystem], now)
@@ -250,7 +250,7 @@ class Engine:
         if name == "Event":
             self._reports.on_event(vehicle, source, fields, now)
         else:
-            self._handle(vehicle, source, name, fields, now)
+            self._handle(vehicle, source, name, fields, now, set_of(message))
         self._timer_pass.run(now)
 
     def dialects_of(self, address: JausAddress) -> tuple[str, ...]:
@@ -406,13 +406,14 @@ class Engine:
     # == routing between translators and the parts ========================================
 
     def _handle(self, vehicle: Vehicle, source: JausAddress, name: str,
-                fields: Mapping[str, Any], now: float) -> None:
-        """A message of a known vehicle: to the part that handles it, then to translators."""
+                fields: Mapping[str, Any], now: float, service_set: str = "") -> None:
+        """A message of a known vehicle: to the part that handles it, then to translators
+        (the one taking ``name`` of ``service_set`` from ``source``)."""
         handler = self._handlers.get(name)
         if handler is not None:
             handler(vehicle, source, fields, now)
         if self.manager.handles(name):
-            ctx = self._views.context(vehicle, now, source)
+            ctx = self._views.context(vehicle, now, source, service_set)
             self._apply(self.manager.on_message(name, fields, ctx), now)
 
     def _on_status(self, vehicle: Vehicle, source: JausAddress, fields: Mapping[str, Any],

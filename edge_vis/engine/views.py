@@ -107,7 +107,7 @@ class Views:
         )
 
     def context(self, vehicle: Vehicle | None, now: float,
-                source: JausAddress | None = None) -> TranslatorContext:
+                source: JausAddress | None = None, service_set: str = "") -> TranslatorContext:
         """What a translator is handed with an input at ``now``."""
         state = self._state
         return TranslatorContext(
@@ -118,6 +118,7 @@ class Views:
             vehicles=self._lazy,
             source=source,
             catalogue=state.catalogue,
+            service_set=service_set,
         )
 
     def snapshot(self) -> EngineSnapshot:

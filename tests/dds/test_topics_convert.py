@@ -82,7 +82,7 @@ def test_kinds_decide_direction() -> None:
         "JointCommand", "EndEffectorCommand", "DeviceCommand", "PlatformCommand",
         "VectorCommand", "AccelerationLimitCommand", "PoseCommand", "EmergencyCommand",
         "ManagementCommand",
-        "PlanQuery", "PathSegmentPlan", "MissionSpoolCommand",
+        "PlanQuery", "PathSegmentPlan", "MissionSpoolCommand", "ManipulatorPlan",
         "SensorCommand",
         # IOP and UGV
         "HandoffRequest", "HandoffResponse", "CostMapRequest", "NoGoZoneCommand",
