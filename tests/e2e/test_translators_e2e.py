@@ -212,19 +212,23 @@ def test_ugv_odometry_out_parking_brake_in(domain_id: int, partition: str) -> No
 
 def test_iop_platform_and_health(domain_id: int, partition: str) -> None:
     iop = "urn:jaus:jss:iop:"
+    state = {"platform_state": 1}  # it reports the state it was last set to, as IOP does
+
+    def set_state(f: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
+        state["platform_state"] = f["platform_state"]
+        return [("ConfirmPlatformStateRequest",
+                 {"platform_state": f["platform_state"], "response_code": 0})]
+
     peer = SetPeer(JausAddress(84, 1, 1), (iop + "PlatformState", iop + "PlatformMode",
                                            "urn:jaus:jss:exp:aeodrs:HealthMonitor"),
-                   {"QueryPlatformState": lambda f: ("ReportPlatformState",
-                                                     {"platform_state": 1}),
+                   {"QueryPlatformState": lambda f: ("ReportPlatformState", dict(state)),
                     "QueryPlatformMode": lambda f: ("ReportPlatformMode",
                                                     {"platform_mode": 2, "status": 1}),
                     "QueryUGVSummary": lambda f: ("ReportUGVSummary", {
                         "ugv_severity_rec": {"severity": 2},
                         "severity_list": [{"node_id": {"node_id": 3},
                                            "severity_rec": {"severity": 2}}]})},
-                   name="Iop", on_command={"SetPlatformState": lambda f: [
-                       ("ConfirmPlatformStateRequest",
-                        {"platform_state": f["platform_state"], "response_code": 0})]})
+                   name="Iop", on_command={"SetPlatformState": set_state})
 
     async def body(runtime: Runtime, operator: Any) -> None:
         status = await collect(operator, "PlatformStatus",
