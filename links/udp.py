@@ -379,10 +379,11 @@ class UdpLink(Link):
             except DecodeError as exc:
                 self._malformed(addr, str(exc), data)
                 continue
-            if addr != batch_peer and batch:
-                self._received(batch_peer, batch, batch_bytes, tapped=True)
-                batch, batch_bytes = [], 0
-            self._learn(addr)
+            if addr != batch_peer:
+                if batch:
+                    self._received(batch_peer, batch, batch_bytes, tapped=True)
+                    batch, batch_bytes = [], 0
+                self._learn(addr)
             if self._taps:
                 self._tap_in(addr, packets)
             batch_peer = addr
