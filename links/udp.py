@@ -340,6 +340,8 @@ class UdpLink(Link):
         if sock is None or loop is None:
             return
         count = self._drain()
+        if self._sock is None:  # closed by what the packets caused
+            return
         if count >= READ_BATCH:  # more is waiting: go on at the loop's next turn
             self._tick = loop.call_later(0, self._on_cycle)
         elif count:

@@ -328,3 +328,20 @@ def test_a_route_learned_inside_a_batch_applies_to_the_rest_of_it() -> None:
     route = router.lookup(ROBOT)
     assert route is not None and (route.link, route.peer) == ("udp", UDP_PEER)
     assert router.counters["dropped: destination on arrival link"] == 2
+
+
+def test_a_batch_within_a_paced_links_budget_leaves_at_once_and_is_charged() -> None:
+    router = Router([ME])
+    # 80,000 bit/s: a 500-byte burst allowance; each packet costs 6 + 14 + 29 = 49 bytes
+    router.add_link("radio", bandwidth_bps=80_000)
+    router.add_link("lan")
+    router.set_relay("lan", "radio")
+    router.add_route(ROBOT, "radio", RADIO)
+    batch = [pkt(OCU, ROBOT, seq=s, payload=b"\x05\x04" + bytes(4)) for s in range(1, 9)]
+    (out,) = sends(router.receive("lan", UDP_PEER, batch, now=0.0))
+    assert [p.sequence for p in out.packets] == list(range(1, 9))
+    # the budget paid for them: the next batch (the allowance spent) waits in the queue
+    more = [pkt(OCU, ROBOT, seq=s, payload=b"\x05\x04" + bytes(4)) for s in range(9, 17)]
+    (rest,) = sends(router.receive("lan", UDP_PEER, more, now=0.0))
+    assert 0 < len(rest.packets) < 8
+    assert router.stats().links["radio"].queued_bytes == 49 * (8 - len(rest.packets))

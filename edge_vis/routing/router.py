@@ -691,10 +691,16 @@ class Router:
             packets = fits
         if not packets:
             return
-        if state.bandwidth_bps is None and not state.busy and not state.queued_bytes:
-            state.sent += len(packets)
-            actions.append(_send_packets(link, peer, tuple(packets)))
-            return
+        if not state.busy and not state.queued_bytes:
+            rate = state.bandwidth_bps
+            if rate is None:
+                state.sent += len(packets)
+                actions.append(_send_packets(link, peer, tuple(packets)))
+                return
+            if not state.latest_wins and self._within_budget(state, packets, now, rate):
+                state.sent += len(packets)
+                actions.append(_send_packets(link, peer, tuple(packets)))
+                return
         queues = state.queues
         for p in packets:
             cost = state.cost(p)
@@ -710,6 +716,27 @@ class Router:
             state.drops[reason] += 1
             self.counters[f"dropped: {reason}"] += 1
         self._drain(state, now, actions)
+
+    @staticmethod
+    def _within_budget(state: _LinkState, packets: Sequence[Packet], now: float,
+                       rate: float) -> bool:
+        """Charge ``packets`` to an idle paced link's budget if the queue would let them
+        all leave now, in this order (one priority, the budget not spent before the
+        last, no more than the queue holds): then they skip the queue, which would change
+        nothing but the cost."""
+        state.refill(now, rate)
+        priority = packets[0].priority & 3
+        overhead = 14 + state.overhead
+        total = 0
+        for p in packets:
+            if (p.priority & 3) != priority:
+                return False
+            total += len(p.payload) + overhead
+        last = len(packets[-1].payload) + overhead
+        if total > state.queue_limit or state.tokens - (total - last) < -1e-9:
+            return False
+        state.tokens -= total
+        return True
 
     def _urgent(self, actions: list[Action], link: str, peer: Peer | None,
                 packets: Sequence[Packet], now: float) -> None:
