@@ -375,11 +375,10 @@ class UdpLink(Link):
                 self.counters.last_error = str(exc)
                 continue
             count += 1
-            data = buffer[:size].tobytes()
-            try:
-                packets = unpack_datagram(data)
+            try:  # each packet copies its own bytes out of the buffer
+                packets = unpack_datagram(buffer[:size])
             except DecodeError as exc:
-                self._malformed(addr, str(exc), data)
+                self._malformed(addr, str(exc), buffer[:size].tobytes())
                 continue
             if addr != batch_peer:
                 if batch:
@@ -390,7 +389,7 @@ class UdpLink(Link):
                 self._tap_in(addr, packets)
             batch_peer = addr
             batch += packets
-            batch_bytes += len(data)
+            batch_bytes += size
         if batch:
             self._received(batch_peer, batch, batch_bytes, tapped=True)
         return count
