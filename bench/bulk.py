@@ -9,11 +9,17 @@ Run: ``.venv/bin/python bench/bulk.py [--quick]``. Prints a table; asserts nothi
   connection" pays UDT's connection set-up and slow start (initial RTT estimate 100 ms)
   per file; "open connection" sends on a connection already carrying files, as a batch
   (``send-image A B C``) and the relay's forwarder do.
-* ``lossy``: the same through ``tests/lossy_proxy.py`` at 10 Mbit/s, 2 % loss each way,
-  20 ms one-way delay, 64 KiB queue: one lane without a rate budget (UDT probes) and
-  with a budget of 9.5 Mbit/s (``UDT_MAXBW``), then four and six lanes (parallel
-  connections, ``--lanes N``) sharing that budget; as a fraction of the proxy's 10 Mbit/s,
-  mean of two seeds of the proxy's loss pattern.
+* ``radio``: through ``tests/lossy_proxy.py`` in a process of its own at 10 Mbit/s, 20 ms
+  one-way delay, 64 KiB queue, with 2 % loss each way and with none, side by side:
+  one connection (``--lanes 1``, what ``send-image`` did by default before), six fixed
+  lanes (``--lanes 6``), the adaptive default (no flags), and the adaptive default with a
+  5 Mbit/s budget (``--max-rate 5M``); goodput as a fraction of the proxy's 10 Mbit/s,
+  timed from the manifest to the receipt confirming the SHA-256 (connection set-up, slow
+  start and the last segment's tail included). One connection gets a 4 MiB file (its
+  rate does not depend on the size and a bigger one takes minutes).
+* ``forwarder``: a relay (``ImageService`` with ``forward``) passes a file on to an
+  operator-side receiver through the same lossy proxy, adaptive lanes, no flags; timed
+  from the relay's verification to the operator's.
 * ``resume``: a loopback transfer held to 80 Mbit/s is cut (receiver closes every
   connection); the figure is the time from the cut until the receiver has accepted the
   resumed transfer at its offset, with the sender's default backoff.
@@ -33,7 +39,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from lossy_proxy import LossyProxy
+from lossy_proxy import separate_process
 
 from links.udt import UdtBulkChannel
 
@@ -77,16 +83,47 @@ def loopback(folder: Path, size: int, runs: int, warm: bool) -> tuple[float, flo
     return size / min(times) / 1e6, statistics.median(times)
 
 
-def lossy(folder: Path, size: int, max_rate: int | None, lanes: int, seed: int
-          ) -> tuple[float, dict]:
-    path, manifest = _file(folder, size, f"lossy{seed}.bin")
-    with UdtBulkChannel.ImageService(folder / f"lossy{seed}{lanes}{max_rate}") as svc, LossyProxy(
-        svc.address, loss=0.02, delay=0.020, rate_bps=10e6, queue_bytes=64 * 1024, seed=seed,
-        lifetime=300,
-    ) as proxy:
-        elapsed = _timed_send(path, manifest, proxy.address, max_rate, lanes)
-        counters = dict(proxy.counters)
-    return size * 8 / elapsed / 1e6, counters
+def radio(folder: Path, size: int, loss: float, lanes: int, max_rate: int | None
+          ) -> tuple[float, dict, list]:
+    """Goodput (Mbit/s), the proxy's counters and the lane controller's decisions."""
+    path, manifest = _file(folder, size, f"radio{lanes}{loss}{max_rate}.bin")
+    with UdtBulkChannel.ImageService(folder / f"radio{lanes}{loss}{max_rate}") as svc, \
+            separate_process(svc.address, loss=loss, delay=0.020, rate_bps=10e6,
+                             queue_bytes=64 * 1024, seed=1, lifetime=600) as (address, counters), \
+            UdtBulkChannel.BulkSender(address, max_rate_bps=max_rate, lanes=lanes,
+                                      give_up_after=120) as sender:
+        started = time.perf_counter()
+        result = sender.send_file(path, manifest)
+        elapsed = time.perf_counter() - started
+    if not result.ok:
+        raise SystemExit(f"transfer failed: {result.reason}")
+    return size * 8 / elapsed / 1e6, counters, sender.lane_history
+
+
+def forwarded(folder: Path, size: int, loss: float) -> float:
+    """Goodput (Mbit/s) of the relay's forwarder to the operator side, adaptive lanes."""
+    path, manifest = _file(folder, size, "fwd.bin")
+    marks: dict[str, float] = {}
+
+    def seen(where: str) -> object:
+        def publish(topic: str, sample: dict) -> None:
+            if topic == "ImageProduct" and where not in marks:
+                marks[where] = time.perf_counter()
+        return publish
+
+    with UdtBulkChannel.ImageService(folder / "operator", publish=seen("operator"),
+                                     publish_data=False) as ops, \
+            separate_process(ops.address, loss=loss, delay=0.020, rate_bps=10e6,
+                             queue_bytes=64 * 1024, seed=1, lifetime=600) as (address, _c), \
+            UdtBulkChannel.ImageService(folder / "relay", forward=[address],
+                                        publish=seen("relay"), publish_data=False) as relay:
+        result = UdtBulkChannel.send_image(path, relay.address, manifest=manifest, lanes=1)
+        deadline = time.monotonic() + 180
+        while "operator" not in marks and time.monotonic() < deadline:
+            time.sleep(0.05)
+    if not result.ok or "operator" not in marks:
+        raise SystemExit("forwarding failed")
+    return size * 8 / (marks["operator"] - marks["relay"]) / 1e6
 
 
 def resume_time(folder: Path, runs: int) -> list[float]:
@@ -124,7 +161,7 @@ def main() -> None:
     args = parser.parse_args()
     logging.basicConfig(level=logging.WARNING)
     runs = 2 if args.quick else 5
-    lossy_size = (4 << 20) if args.quick else (8 << 20)
+    radio_size = (8 << 20) if args.quick else (16 << 20)
     rows: list[tuple[str, str, str]] = []
     with tempfile.TemporaryDirectory(prefix="bulk-bench-") as tmp:
         folder = Path(tmp)
@@ -134,16 +171,26 @@ def main() -> None:
                 how = "open connection" if warm else "new connection"
                 rows.append((f"loopback {label}, {how}", f"{mbps:7.1f} MB/s",
                              f"best of runs; median {median * 1000:.0f} ms"))
-        for lanes, max_rate in ((1, None), (1, 9_500_000), (4, 9_500_000), (6, 9_500_000)):
-            label = f"{lanes} lane{'s' if lanes > 1 else ''}, " + (
-                "no budget" if max_rate is None else "budget 9.5 Mbit/s")
-            figures = [lossy(folder, lossy_size, max_rate, lanes, seed) for seed in (1, 2)]
-            good = statistics.mean(f for f, _ in figures)
-            c = figures[0][1]
-            rows.append((f"lossy 10M/2%/20ms, {label}", f"{good:7.2f} Mbit/s",
-                         f"{good / 10 * 100:.0f} % of link; {lossy_size >> 20} MiB file; "
-                         f"proxy lost {c.get('up_lost', 0)}+{c.get('down_lost', 0)}, "
-                         f"queue-dropped {c.get('up_queue_drop', 0)}"))
+        for loss in (0.02, 0.0):
+            for label, lanes, max_rate in (("1 connection (--lanes 1)", 1, None),
+                                           ("6 fixed lanes (--lanes 6)", 6, None),
+                                           ("adaptive (no flags)", 0, None),
+                                           ("adaptive, budget 5 Mbit/s", 0, 5_000_000)):
+                if loss == 0.0 and max_rate:
+                    continue
+                size = (4 << 20) if lanes == 1 and loss else radio_size
+                good, c, history = radio(folder, size, loss, lanes, max_rate)
+                steps = " -> ".join(str(n) for n in [8, *(n for _, n, _ in history)]) \
+                    if lanes == 0 else ""
+                rows.append((f"radio 10M/{loss:.0%}/20ms, {label}", f"{good:7.2f} Mbit/s",
+                             f"{good / 10 * 100:.0f} % of link; {size >> 20} MiB; proxy lost "
+                             f"{c.get('up_lost', 0)}+{c.get('down_lost', 0)}, queue-dropped "
+                             f"{c.get('up_queue_drop', 0)}" + (f"; lanes {steps}" if steps
+                                                               else "")))
+        good = forwarded(folder, radio_size, 0.02)
+        rows.append(("radio 10M/2%/20ms, relay forwarder, adaptive", f"{good:7.2f} Mbit/s",
+                     f"{good / 10 * 100:.0f} % of link; {radio_size >> 20} MiB, relay "
+                     f"verified -> operator verified"))
         delays = resume_time(folder, 3 if not args.quick else 1)
         if delays:
             rows.append(("resume after a drop", f"{statistics.median(delays) * 1000:7.0f} ms",

@@ -60,7 +60,8 @@ def test_the_moved_demo_relay_still_reaches_the_moved_fleet(tmp_path: Path) -> N
     fleet = tomllib.loads(FLEET.read_text(encoding="utf-8"))
     relay = tomllib.loads(RELAY.read_text(encoding="utf-8"))
     wanted = relay_addresses(relay) + fleet_addresses(fleet)
-    assert wanted == [("127.0.0.10", 3794), ("127.0.0.11", 3794), ("127.0.0.12", 3794)]
+    assert wanted == [("127.0.0.10", 3794), ("127.0.0.11", 3794), ("127.0.0.12", 3794),
+                      ("127.0.0.1", 9100)]  # the UUV's image server (UDT)
     hosts = moved_hosts([host for host, _ in wanted], 3)
     placement = Placement(3, 5, {(h, p): (hosts[h], p) for h, p in wanted})
 
@@ -71,6 +72,7 @@ def test_the_moved_demo_relay_still_reaches_the_moved_fleet(tmp_path: Path) -> N
     uuv = spec.vehicles[2]
     assert uuv.pty_link == str(tmp_path / "uuv-delta.pty")
     assert Path(uuv.pty_path_file).parent == tmp_path and Path(uuv.atr_dir).parent == tmp_path
+    assert uuv.image_server == "127.77.3.1:9100"
 
     written = tmp_path / "relay.toml"
     written.write_text(dump_toml(move_relay(relay, placement, paths)), encoding="utf-8")

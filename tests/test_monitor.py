@@ -244,3 +244,30 @@ def test_plain_output_lists_the_vehicles_published_on_dds() -> None:
     assert "UGV" in alpha and "STANDBY" in alpha and "36.60020,-121.90000" in alpha
     assert "AUV" in delta and "36.62000" in delta
     assert '"GlobalPose"' in done.stdout  # the JSON summary counts samples per topic
+
+
+def test_handoff_requests_are_shown_and_answered_by_keys() -> None:
+    view = FleetView()
+    _fleet(view, 0.0)
+    view.ingest("HandoffStatus", {"vehicle_id": "ugv-a", "holder": "alice", "requests": [
+        {"request_id": 3, "requester": "bob", "authority": 90, "state": "PENDING",
+         "explanation": "my sector"},
+        {"request_id": 2, "requester": "carol", "authority": 10, "state": "DENIED"}]}, 1.0)
+    lines = view.render(1.0)
+    assert "   HAND-OFF #3 to bob (90) 'my sector' pending: a = grant, n = refuse" in lines
+    assert not any("carol" in line for line in lines)  # decided: not asked again
+    assert all(len(line) <= 80 for line in lines)
+    alice = Operator("alice", 150)
+    alice.select(view, 0)
+    [(topic, sample)] = alice.key("a", view)
+    assert (topic, sample) == ("HandoffResponse", {"vehicle_id": "ugv-a", "operator_id":
+                                                   "alice", "request_id": 3,
+                                                   "response": "GRANTED"})
+    assert alice.key("n", view)[0][1]["response"] == "DENIED"
+    bob = Operator("bob", 90)
+    bob.select(view, 0)
+    [(topic, sample)] = bob.key("h", view)
+    assert topic == "HandoffRequest" and sample["authority"] == 90
+    view.ingest("HandoffStatus", {"vehicle_id": "ugv-a", "holder": "bob", "requests": [
+        {"request_id": 3, "requester": "bob", "authority": 90, "state": "GRANTED"}]}, 2.0)
+    assert alice.key("a", view) == [] and "no hand-off request" in alice.message

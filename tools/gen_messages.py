@@ -40,6 +40,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from edge_vis.catalogue.jsidl import JsidlModel, parse_files  # noqa: E402
+from edge_vis.codec.layout import wire_signature  # noqa: E402
 from edge_vis.codec.types import (  # noqa: E402
     BitField,
     Enum,
@@ -309,8 +310,10 @@ class Chosen:
             else:
                 return f"{dialect.name} defines it as {kept.name}"
             return None
-        if message_diff(earlier, msg) is not None:
+        if message_diff(earlier, msg) is not None and \
+                wire_signature(earlier.body) != wire_signature(msg.body):
             return f"{dialect.name} already defines it as {earlier.name}"
+        # the same bytes, the same decoded keys: one reading whatever its labels say
         if msg.name != earlier.name and msg.name != kept.name:
             aliases.setdefault(msg.name, msg.code)
         return None
@@ -357,8 +360,12 @@ def build(root: Path) -> tuple[list[Chosen], list[LeftOut], list[tuple[str, str]
             return
         why = None if dialect is None else this.offer_variant(dialect, label, kept, msg, False)
         if dialect is not None and why is None:
+            earlier = this.variants[dialect.name].get(msg.code)
+            same = "" if earlier is None or earlier is msg else message_diff(earlier, msg)
+            note = (f"; read with {dialect.name}'s definition, the same on the wire (only "
+                    f"labels differ: {same})") if same else ""
             holder.differences.append((msg.code, kept.name, label, msg.name,
-                                       f"{d}; dialect {dialect.name}"))
+                                       f"{d}; dialect {dialect.name}{note}"))
             return
         if why is not None:
             earlier = this.variants[dialect.name][msg.code] if dialect else kept

@@ -14,8 +14,18 @@ JAUS -> DDS:
   the engine treats any message as a sign of life, probes an unknown sender with
   QueryIdentification, and the ``core`` translator publishes ``VehicleStatus`` for it.
 
+* the engine's hand-off requests (IOP EnhancedAccessControl, HandoffController: operators
+  asking the holder over ``HandoffRequest``, other JAUS clients through the vehicle's
+  RequestReleaseControl, operators asking a vehicle another JAUS client holds and its
+  ConfirmHandoffRequest) -> ``HandoffStatus``, whenever one is made, answered or times out;
+* ConfirmDigitalResourceEndpoint -> ``RequestResult`` (the endpoint ID the vehicle gave).
+
 DDS -> JAUS (behind control, throttled): ``PlatformCommand`` -> SetPlatformState and/or
-SetPlatformMode (an empty member leaves it unchanged).
+SetPlatformMode (an empty member leaves it unchanged), UpdateUGVSummary when
+``update_health``; ``DigitalResourceCommand`` ->
+RegisterDigitalResourceEndpoint or RemoveDigitalResourceEndpoint. ``HandoffRequest`` and
+``HandoffResponse`` are read by the engine (operator arbitration), which answers the
+vehicle with ConfirmReleaseControl.
 """
 
 from __future__ import annotations
@@ -23,17 +33,23 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from edge_vis.kit import CommandRule as Cmd
 from edge_vis.kit import (
+    Action,
+    Build,
     Computed,
+    Const,
     Each,
     From,
+    Publish,
     Put,
     ReportRule,
     RuleTranslator,
+    TranslatorContext,
+    VehicleView,
     code_of,
     label,
 )
+from edge_vis.kit import CommandRule as Cmd
 
 IOP = "urn:jaus:jss:iop:"
 HEALTH = "urn:jaus:jss:exp:aeodrs:HealthMonitor"
@@ -69,6 +85,41 @@ def _jaus_id(value: Any) -> str:
         return ""
     parts = (value.get(k, 0) for k in ("subsystem_id", "node_id", "component_id"))
     return ".".join(str(int(p)) for p in parts)
+
+
+def _address(text: Any) -> dict[str, int]:
+    """``"S.N.C"`` -> the JAUS ID bit field of an endpoint."""
+    parts = [int(p) for p in str(text).split(".")]
+    if len(parts) != 3:
+        raise ValueError(f"jaus_address {text!r} is not S.N.C")
+    return {"subsystem_id": parts[0], "node_id": parts[1], "component_id": parts[2]}
+
+
+def _endpoint(sample: Mapping[str, Any]) -> dict[str, Any]:
+    """The endpoint record of a REGISTER: URL, server type, optional JAUS ID and resource."""
+    url = str(sample.get("url") or "")
+    if not url:
+        raise ValueError("REGISTER needs a url")
+    record: dict[str, Any] = {"server_type": code_of(SERVER_TYPES)(
+        sample.get("server_type") or "RTSP"), "server_url": url}
+    if sample.get("jaus_address"):
+        record["jaus_id"] = _address(sample["jaus_address"])
+    if int(sample.get("resource_id", -1)) >= 0:
+        record["resource_id"] = int(sample["resource_id"])
+    return record
+
+
+def handoff_sample(view: VehicleView, timestamp_ms: int) -> dict[str, Any]:
+    """HandoffStatus for ``view``: the holder, the timeouts and every request."""
+    return {"vehicle_id": view.vehicle_id, "holder": view.controller,
+            "handoff_timeout": view.handoff_timeout,
+            "reassert_timeout": view.handoff_reassert_timeout,
+            "vehicle_handoff_timeout": view.vehicle_handoff_timeout,
+            "requests": [{"request_id": h.request_id, "requester": h.requester,
+                          "authority": h.authority, "explanation": h.explanation,
+                          "state": h.state, "reason": h.reason, "via": h.via}
+                         for h in view.handoffs],
+            "timestamp_ms": timestamp_ms}
 
 
 def _path_points(f: Mapping[str, Any]) -> list[dict[str, float]]:
@@ -116,7 +167,9 @@ class IopTranslator(RuleTranslator):
                    {"level": From("ugv_severity_rec.severity", convert=label(
                        HEALTH_LEVELS, "HEALTH_UNKNOWN"), default="HEALTH_UNKNOWN"),
                     "faults": Computed(_faults, "severity_list[] with severity >= WARN")},
-                   query="QueryUGVSummary", service=HEALTH, rate=1.0, on_change=True),
+                   query="QueryUGVSummary", service=HEALTH, rate=1.0, on_change=True,
+                   merge=True, doc="merged with the battery of the ugv translator's "
+                                   "power plant rule"),
         ReportRule("ReportDigitalResourceEndpoint", "DigitalResource",
                    {"url": From("server_url", default=""),
                     "server_type": From("server_type", convert=label(SERVER_TYPES)),
@@ -147,6 +200,12 @@ class IopTranslator(RuleTranslator):
                     "longitude": From("global_pose_rec.longitude", note="deg"),
                     "altitude": From("global_pose_rec.altitude", note="m")},
                    query="QueryMeasurement", service=IOP + "MeasurementSensor", rate=1.0),
+        ReportRule("ConfirmDigitalResourceEndpoint", "RequestResult",
+                   {"request": Const("DigitalResourceEndpoint"),
+                    "request_id": From("request_id"), "id": From("id"),
+                    "result": Const("CONFIRMED")}, keys=("request",),
+                   doc="the answer to RegisterDigitalResourceEndpoint (and Remove): the "
+                       "endpoint ID"),
     )
     command_rules = (
         Cmd("PlatformCommand", "SetPlatformState", IOP + "PlatformState", "platform_state",
@@ -157,15 +216,85 @@ class IopTranslator(RuleTranslator):
             {"platform_mode": Put("platform_mode", convert=code_of(PLATFORM_MODES),
                                   note="mode name")},
             when={"platform_mode": tuple(PLATFORM_MODES.values())}),
+        Cmd("PlatformCommand", "UpdateUGVSummary", HEALTH, "health_update", {},
+            when={"update_health": True}, doc="the health monitor refreshes its summary"),
+        Cmd("DigitalResourceCommand", "RegisterDigitalResourceEndpoint",
+            IOP + "DigitalResourceDiscovery", "digital_resource",
+            {"request_id_rec.request_id": Put("request_id", 0, 255, convert=int),
+             "digital_resource_endpoint_rec": Build(
+                 "url, server_type, jaus_address, resource_id", _endpoint,
+                 "server type by name; jaus_address S.N.C and resource_id >= 0 optional")},
+            when={"action": "REGISTER"}),
+        Cmd("DigitalResourceCommand", "RemoveDigitalResourceEndpoint",
+            IOP + "DigitalResourceDiscovery", "digital_resource",
+            {"id": Put("endpoint_id", convert=int),
+             "request_id": Put("request_id", 0, 255, convert=int)},
+            when={"action": "REMOVE"}),
     )
+    extra_publishes = ("HandoffStatus",)
     not_translated = (
         ("ReportHeartbeatPulse", "unsolicited heartbeats keep the vehicle alive in the "
                                  "engine; VehicleStatus comes from the core translator"),
         ("ReportPathReporterCapabilities", "path limits: not exposed"),
-        ("ReportCostMap2D", "cost maps: no topic in the model"),
-        ("ReportNoGoZones", "no-go zones: no topic in the model"),
-        ("CBRN4", "CBRN sensor family: no topic in the model"),
-        ("RequestHandoff", "control handoff is the engine's operator arbitration"),
+        ("QueryPathReporterCapabilities", "asks for ReportPathReporterCapabilities, which is "
+                                          "not exposed"),
     )
+
+    def on_vehicle(self, change: str, ctx: TranslatorContext) -> list[Action]:
+        """HandoffStatus whenever a hand-off request or the holder changes."""
+        view = ctx.vehicle
+        if view is None or change not in ("handoff", "control"):
+            return []
+        if change == "control" and not view.handoffs:
+            return []
+        return [Publish("HandoffStatus", handoff_sample(view, ctx.timestamp_ms))]
+
+    def describe(self) -> list[dict[str, Any]]:
+        """The rule rows, and the hand-off the engine decides and this translator shows."""
+        return [*super().describe(), *(_row(*row) for row in HANDOFF_ROWS)]
+
+
+#: (direction, JAUS message, DDS topic, [(JAUS field, DDS member, note)], query, doc)
+HANDOFF_ROWS: tuple[tuple[str, str, str, list[tuple[str, str, str]], str, str], ...] = (
+    ("jaus->dds", "RequestReleaseControl", "HandoffStatus",
+     [("request_release_control_list[].src_*_id", "requests[].requester", "jaus:S.N.C"),
+      ("authority_code", "requests[].authority", ""),
+      ("explanation", "requests[].explanation", ""),
+      ("(sending component)", "requests[].via", "")], "",
+     "another JAUS client asks the vehicle's EnhancedAccessControl for control: the "
+     "holding operator sees the request (HandoffController)"),
+    ("dds->jaus", "ConfirmReleaseControl", "HandoffResponse",
+     [("release_control_list[].id", "request_id", "the vehicle's request ID"),
+      ("response_code", "response", "GRANTED, DENIED, WAIT")], "",
+     "only the holder's answer to a request made through the vehicle; GRANTED leaves the "
+     "vehicle to the other client"),
+    ("dds->jaus", "RequestHandoff", "HandoffRequest",
+     [("authority_code", "authority", ""), ("explanation", "explanation", "")], "",
+     "an operator asks for a vehicle nobody here holds but another JAUS client does: sent "
+     "to its components with EnhancedAccessControl held by that client, again each time "
+     "the operator asks again"),
+    ("dds->jaus", "RemoveHandoffRequest", "HandoffRequest",
+     [("id", "(the vehicle's request ID)", "action = CANCEL")], "", ""),
+    ("jaus->dds", "ConfirmHandoffRequest", "HandoffStatus",
+     [("response_code", "requests[].state", "QUEUED -> PENDING, DEFERRED, GRANTED, "
+                                            "DENIED, TIMEOUT, NOT_AVAILABLE, "
+                                            "INSUFFICIENT_AUTHORITY"),
+      ("id", "(kept for RemoveHandoffRequest)", "")], "",
+     "GRANTED: the requester holds the vehicle here and the relay confirms its control"),
+    ("jaus->dds", "ReportHandoffTimeout", "HandoffStatus",
+     [("timeout", "vehicle_handoff_timeout", "s; requests through the vehicle lapse after "
+                                             "it")], "QueryHandoffTimeout",
+     "asked once when a vehicle with EnhancedAccessControl is found"),
+    ("jaus->dds", "ReportEnhancedTimeout", "HandoffStatus",
+     [("timeout", "(recorded)", "s")], "QueryEnhancedTimeout",
+     "asked once when a vehicle with EnhancedAccessControl is found"),
+)
+
+
+def _row(direction: str, message: str, topic: str, fields: list[tuple[str, str, str]],
+         query: str, doc: str) -> dict[str, Any]:
+    return {"translator": "iop", "direction": direction, "message": message, "topic": topic,
+            "query": query, "service": IOP + "EnhancedAccessControl", "rate": None,
+            "fields": [{"jaus": j, "dds": d, "note": n} for j, d, n in fields], "doc": doc}
 
 

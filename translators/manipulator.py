@@ -34,7 +34,11 @@ DDS -> JAUS (behind control, throttled by the engine):
 Manipulator v1.0 and v2.0 both: the engine matches v1.0 services to the v2.0 ones that
 took over their messages and decodes a v1.0 vehicle's messages with the v1.0 definitions
 (dialect ``manipulator-1.0``), under the v2.0 names; the v1.0 motion profile's field names
-are read and written here.
+are read and written here. A vehicle reporting both 1.x and 2.x manipulator services reads
+each message as the service carrying it defines it: a 2.0 ManipulatorJointMotionProfile or
+ManipulatorSpecificationService speaks 2.0 beside 1.0 drivers. The IOP copy of the v1.0
+set reads ReportManipulatorSpecifications as v1.0 does (the same bytes; it labels a
+prismatic joint's maximum force newton metre where v1.0 and v2.0 say newton).
 """
 
 from __future__ import annotations
@@ -187,6 +191,7 @@ def _element_uid(sample: Mapping[str, Any]) -> int:
 
 
 V1 = "manipulator-1.0"
+SET_MOTION_PROFILE = 0x0607
 #: v2.0 field name -> the v1.0 one, where v1.0 named the same field otherwise
 _V1_NAMES = {"joint_motion_profile_list": "motion_profile_list",
              "revolute_joint_motion_profile_rec": "revolute_motion_profile_rec",
@@ -487,7 +492,7 @@ class ManipulatorTranslator(RuleTranslator):
                   ctx: TranslatorContext) -> list[Action]:
         """A v1.0 manipulator gets the v1.0 field names where v1.0 named them otherwise."""
         actions = super().on_sample(topic, sample, ctx)
-        if ctx.vehicle is None or V1 not in ctx.vehicle.dialects:
+        if ctx.vehicle is None or not ctx.vehicle.speaks(V1, SET_MOTION_PROFILE):
             return actions
         return [replace(a, fields=_renamed(a.fields, _V1_NAMES))
                 if isinstance(a, Command) and a.name == "SetJointMotionProfile" else a

@@ -12,7 +12,16 @@ JAUS -> DDS:
   ``transfer_case``, ``annunciator``, ``steering``/``throttle``/``brake``,
   ``left_track``/``right_track``, ``stabilizer_<id>``, ``power_plant_<id>``).
 
-DDS -> JAUS (behind control, throttled): ``DeviceCommand`` by device -> SetParkingBrake,
+* ReportIlluminationConfiguration, ReportAnnunciatorConfiguration,
+  ReportTransmissionCapabilities, ReportStabilizerCapabilities,
+  ReportPowerPlantCapabilities -> ``DeviceCapabilities`` (what lights, sounders, gears and
+  transfer case modes are fitted; a stabilizer's angles and outline; a power plant's
+  capacities);
+* ReportPowerPlantStatus of a battery -> ``HealthStatus`` battery charge and voltage.
+
+DDS -> JAUS (behind control, throttled): ``SkidSteerCommand`` -> SetSkidSteerEffort and
+``AckermannCommand`` -> SetAckermannConfiguration (motion commands: the dead-man stop zeroes
+the efforts, the Ackermann one brakes fully); ``DeviceCommand`` by device -> SetParkingBrake,
 SetIlluminationState, SetTransmissionState, SetTransferCaseState, SetAnnunciatorState,
 ResetOdometry, SetStabilizerPosition (``stabilizer_<id>``), SetStabilizerEffort
 (``stabilizer_<id>_effort``), SetPowerPlantConfiguration (``power_plant_<id>``).
@@ -154,16 +163,65 @@ def _device(message: str, device: str, fields: Mapping[str, Any], query: str,
                       query=query, service=UGV + service, rate=1.0, on_change=True)
 
 
-NOT_TRANSLATED: tuple[tuple[str, str], ...] = (
-    ("SetSkidSteerEffort", "drive efforts: commanded through WrenchEffortCommand"),
-    ("SetAckermannConfiguration", "open-loop steering/throttle/brake: commanded through "
-                                  "WrenchEffortCommand or VelocityCommand"),
-    ("ReportStabilizerCapabilities", "stabilizer geometry: no topic in the model"),
-    ("ReportPowerPlantCapabilities", "power plant limits: not exposed"),
-    ("ReportTransmissionCapabilities", "supported gears: not exposed"),
-    ("ReportIlluminationConfiguration", "installed lights: not exposed"),
-    ("ReportAnnunciatorConfiguration", "installed sounders: not exposed"),
-)
+NOT_TRANSLATED: tuple[tuple[str, str], ...] = ()
+
+
+def _fitted(path: str) -> Computed:
+    """The names of the set bits of bit field ``path`` (reserved ones left out)."""
+
+    def names(f: Mapping[str, Any]) -> list[str]:
+        bits = get_path(f, path) or {}
+        return [n for n, v in bits.items() if v and not n.startswith("reserved")]
+
+    return Computed(names, f"{path}: the set bits")
+
+
+def _limits(*items: tuple[str, str, str]) -> Computed:
+    """``limits`` from fields: (JAUS path, name, unit) each, where reported."""
+
+    def pick(f: Mapping[str, Any]) -> list[dict[str, Any]]:
+        out = []
+        for path, name, unit in items:
+            value = get_path(f, path)
+            if value is not None:
+                out.append({"name": name, "text": unit, "number": float(value)})
+        return out
+
+    return Computed(pick, ", ".join(p for p, _n, _u in items))
+
+
+#: capacities of a power plant, by status alternative, with units (only where reported)
+_PLANT_UNITS = {"fuel_capacity": "l", "oil_capacity": "l", "max_oil_pressure": "bar",
+                "max_oil_temp": "degC", "max_engine_temp": "degC", "max_coolant_level": "l",
+                "max_coolant_temp": "degC", "max_glow_plug_temp": "degC",
+                "glow_plug_time": "s", "nominal_voltage": "V", "max_charge": "C",
+                "max_cranking_amps": "A", "fluid_capacity": "l", "max_pressure": "bar",
+                "max_temp": "degC"}
+
+
+def _plant_limits(plant: Mapping[str, Any]) -> list[dict[str, Any]]:
+    var = plant.get("power_plant_capabilities_var") or {}
+    values = next(iter(var.values()), {}) if var else {}
+    if isinstance(values, list):  # batteries: one record per cell string
+        values = values[0] if values else {}
+    return [{"name": n, "text": _PLANT_UNITS.get(n, ""), "number": float(v)}
+            for n, v in values.items()]
+
+
+def _outline(f: Mapping[str, Any]) -> list[dict[str, float]]:
+    return [{"x": float(p.get("point_x", 0.0)), "y": float(p.get("point_y", 0.0)),
+             "z": float(p.get("point_z", 0.0))} for p in f.get("stabilizer_dimensions_list")
+            or []]
+
+
+def _battery(member: str) -> Computed:
+    """A battery plant's charge or voltage for HealthStatus (NaN for other plants)."""
+    source = _plant(member)
+
+    def pick(plant: Mapping[str, Any]) -> float:
+        return source.fn(plant) if _plant_kind(plant) == "battery" else NAN
+
+    return Computed(pick, f"battery_status.{member}")
 
 
 def _actual_position(element: Mapping[str, Any]) -> float:
@@ -210,6 +268,50 @@ class UgvTranslator(RuleTranslator):
             "weight": From("platform_spec.vehicle_weight", note="kg"),
         }, query="QueryPlatformSpecifications", service=UGV + "PlatformSpecifications",
             rate=0.1, on_change=True),
+        ReportRule("ReportPowerPlantStatus", "HealthStatus", {
+            "battery_percent": _battery("percent_charge_remaining"),
+            "supply_voltage": _battery("voltage"),
+        }, query="QueryPowerPlantStatus", service=UGV + "PowerPlantManager",
+            query_fields={"id_list": []}, rate=0.5, split="power_plant_status_list",
+            require="power_plant_status_var.battery_status", merge=True,
+            doc="a battery's charge and voltage; merged with the health monitor's level"),
+        ReportRule("ReportIlluminationConfiguration", "DeviceCapabilities",
+                   {"device": Const("illumination"), "supported": _fitted("types")},
+                   query="QueryIlluminationConfiguration", service=UGV + "IlluminationService",
+                   rate=0.1, on_change=True, doc="the lights fitted"),
+        ReportRule("ReportAnnunciatorConfiguration", "DeviceCapabilities",
+                   {"device": Const("annunciator"), "supported": _fitted("types")},
+                   query="QueryAnnunciatorConfiguration", service=UGV + "AnnunciatorService",
+                   rate=0.1, on_change=True, doc="the sounders fitted"),
+        *(ReportRule("ReportTransmissionCapabilities", "DeviceCapabilities",
+                     {"device": Const(device), "supported": _fitted(field)},
+                     query="QueryTransmissionCapabilities", service=UGV + "DriveTrainDriver",
+                     rate=0.1, on_change=True, doc=f"the {device.replace('_', ' ')} modes")
+          for device, field in (("transmission", "transmission_bf"),
+                                ("transfer_case", "transfer_case_bf"))),
+        ReportRule("ReportStabilizerCapabilities", "DeviceCapabilities", {
+            "device": Computed(lambda e: "stabilizer_" + str(get_path(
+                e, "stabilizer_capabilities_rec.stabilizer_id", 0)), "stabilizer_<id>"),
+            "limits": _limits(("stabilizer_capabilities_rec.maximum_up_angle",
+                               "maximum_up_angle", "rad"),
+                              ("stabilizer_capabilities_rec.maximum_down_angle",
+                               "maximum_down_angle", "rad")),
+            "points": Computed(_outline, "stabilizer_dimensions_list[] point_x/y/z")},
+            query="QueryStabilizerCapabilities", service=UGV + "StabilizerDriver", rate=0.1,
+            on_change=True, split="stabilizer_capabilities",
+            doc="one sample per stabilizer: its angles (rad) and outline (m)"),
+        ReportRule("ReportPowerPlantCapabilities", "DeviceCapabilities", {
+            "device": Computed(lambda e: "power_plant_" + str(get_path(
+                e, "power_plant_desc_rec.power_plant_id", 0)), "power_plant_<id>"),
+            "supported": Computed(lambda e: [next(iter(e.get(
+                "power_plant_capabilities_var") or {}), "").removesuffix("_rec")
+                .removesuffix("_list").removesuffix("_capabilities")],
+                "power_plant_capabilities_var alternative (gas_engine, battery ...)"),
+            "limits": Computed(_plant_limits, "power_plant_capabilities_var.*: capacities")},
+            query="QueryPowerPlantCapabilities", service=UGV + "PowerPlantManager",
+            query_fields={"id_list": []}, rate=0.1, on_change=True,
+            split="power_plant_capabilities_list",
+            doc="one sample per power plant: its kind and capacities"),
         ReportRule("ReportPowerPlantStatus", "PowerPlantStatus", {
             "plant_id": From("power_plant_desc_rec.power_plant_id"),
             "description": From("power_plant_desc_rec.description", default=""),
@@ -287,6 +389,24 @@ class UgvTranslator(RuleTranslator):
                 "QueryAnnunciatorState", "AnnunciatorService"),
     )
     command_rules = (
+        Cmd("SkidSteerCommand", "SetSkidSteerEffort", UGV + "SkidSteerDriver", "skid_steer",
+            {"left_side_propulsive_effort": Put("left_effort", -100.0, 100.0, note="percent"),
+             "right_side_propulsive_effort": Put("right_effort", -100.0, 100.0,
+                                                 note="percent")},
+            stop={"left_side_propulsive_effort": 0.0, "right_side_propulsive_effort": 0.0},
+            doc="motion: dead-man stop zeroes both tracks"),
+        Cmd("AckermannCommand", "SetAckermannConfiguration", UGV + "AckermannDriver",
+            "ackermann",
+            {"steering_angle": Put("steering_angle", -math.pi / 2, math.pi / 2, note="rad"),
+             "throttle_effort": Put("throttle_effort", 0.0, 100.0, note="percent"),
+             "brake_effort": Put("brake_effort", 0.0, 100.0, note="percent"),
+             "max_steering_rate": Put("max_steering_rate", 0.0, 32.767, optional=True,
+                                      note="rad/s"),
+             "max_steering_torque": Put("max_steering_torque", 0.0, 500.0, optional=True,
+                                        note="N m")},
+            stop=lambda f: {"steering_angle": f["steering_angle"], "throttle_effort": 0.0,
+                            "brake_effort": 100.0},
+            doc="motion: dead-man stop closes the throttle and brakes fully"),
         Cmd("DeviceCommand", "SetParkingBrake", UGV + "ParkingBrakeDriver", "parking_brake",
             {"parking_brake": Put("value", 0.0, 100.0, note="percent")},
             when={"device": "parking_brake"}),

@@ -56,6 +56,7 @@ from edge_vis.errors import (
 
 __all__ = [
     "Catalogue",
+    "Dialects",
     "Message",
     "default_catalogue",
     "shipped_jsidl_sets",
@@ -95,6 +96,24 @@ class Message:
         return self.code.to_bytes(2, "little") + self.body
 
 
+class Dialects(tuple[str, ...]):
+    """The dialects a vehicle speaks (first preferred), and the codes it reads in the base
+    definition even so: a code a dialect redefines but the vehicle carries in a service of
+    the base definition's version (a manipulator v2.0 ``ManipulatorJointMotionProfile``
+    beside v1.0 drivers sends the v2.0 motion profile). A plain tuple wherever names do."""
+
+    base: frozenset[int]
+
+    def __new__(cls, names: Iterable[str] = (), base: Iterable[int] = ()) -> Dialects:
+        self = super().__new__(cls, tuple(names))
+        self.base = frozenset(base)
+        return self
+
+    def __repr__(self) -> str:
+        kept = ", ".join(f"0x{c:04X}" for c in sorted(self.base))
+        return f"Dialects({tuple(self)!r}" + (f", base {kept})" if kept else ")")
+
+
 @dataclass(frozen=True, slots=True)
 class _EventLayout:
     """Where an Event definition keeps its event id, sequence number and report."""
@@ -123,6 +142,8 @@ class Catalogue:
         self._recognise: dict[str, tuple[tuple[str, str], ...]] = {}
         self._dialect_names: dict[str, tuple[str, int]] = {}
         self._dialect_codecs: dict[tuple[str, int], MessageCodec] = {}
+        #: every code some dialect defines (the others never need a dialect look-up)
+        self._dialect_codes: set[int] = set()
         if defs:
             self.add(defs, source=source)
 
@@ -212,6 +233,7 @@ class Catalogue:
                 raise PluginLoadError(f"dialect {dialect.name}{where}: alias {name} names "
                                       f"0x{code:04X}, not a code of the catalogue")
         self._dialects.setdefault(dialect.name, {}).update(incoming)
+        self._dialect_codes.update(incoming)
         recognise = dict.fromkeys((*self._recognise.get(dialect.name, ()), *dialect.recognise))
         self._recognise[dialect.name] = tuple(recognise)
         for defn in incoming.values():
@@ -234,9 +256,28 @@ class Catalogue:
                      if any(uri.startswith(prefix) and str(version).startswith(ver)
                             for prefix, ver in patterns for uri, version in pairs))
 
+    def speaks(self, services: Iterable[tuple[str, str]]) -> Dialects:
+        """The dialects a vehicle offering ``services`` speaks (:meth:`recognise`), with the
+        codes it carries in a service (at its version) that the base definition names and
+        the dialect's does not: those it reads in the base definition (where a newer version
+        gave a message a service of its own, a vehicle offering that service answers it
+        there, as that version defines it, even if an older service beside it also could)."""
+        pairs = tuple(services)
+
+        def majors(pairs: Iterable[tuple[str, str]]) -> set[tuple[str, str]]:
+            return {(uri, str(version).split(".")[0]) for uri, version in pairs}
+
+        offered = majors(pairs)
+        names = self.recognise(pairs)
+        base = {code for name in names for code, defn in self._dialects[name].items()
+                if offered & (majors(self._defs[code].services) - majors(defn.services))}
+        return Dialects(names, base)
+
     def definition(self, code: int, dialects: Iterable[str] = ()) -> MessageDef | None:
         """The definition of ``code`` a speaker of ``dialects`` uses (the base one unless a
         dialect defines the code; the first listed wins)."""
+        if isinstance(dialects, Dialects) and code in dialects.base:
+            return self._defs.get(code)
         for dialect in dialects:
             defn = self._dialects.get(dialect, {}).get(code)
             if defn is not None:
@@ -262,6 +303,7 @@ class Catalogue:
         other._recognise = dict(self._recognise)
         other._dialect_names = dict(self._dialect_names)
         other._dialect_codecs = dict(self._dialect_codecs)
+        other._dialect_codes = set(self._dialect_codes)
         return other
 
     # -- looking up ----------------------------------------------------------------------
@@ -324,7 +366,9 @@ class Catalogue:
 
     def _dialect_codec(self, code: int, dialects: Iterable[str]) -> tuple[str, MessageCodec]:
         """(dialect, codec) of the first of ``dialects`` defining ``code``; KeyError when
-        none does."""
+        none does (or ``dialects`` keep the base definition of ``code``)."""
+        if isinstance(dialects, Dialects) and code in dialects.base:
+            raise KeyError(code)
         for dialect in dialects:
             defn = self._dialects.get(dialect, {}).get(code)
             if defn is not None:
@@ -348,7 +392,7 @@ class Catalogue:
             )
         code = payload[0] | payload[1] << 8
         body = bytes(payload[2:])
-        if dialects and self._dialects:
+        if dialects and code in self._dialect_codes:
             try:
                 dialect, variant = self._dialect_codec(code, dialects)
             except KeyError:
@@ -377,7 +421,7 @@ class Catalogue:
             dialects = (self._dialect_names[name_or_code][0], *dialects)
         defn = self._resolve(name_or_code)
         prefix = defn.code.to_bytes(2, "little")
-        if dialects and self._dialects:
+        if dialects and defn.code in self._dialect_codes:
             try:
                 _dialect, variant = self._dialect_codec(defn.code, dialects)
             except KeyError:

@@ -136,7 +136,12 @@ def check_sim(path: Path, data: Mapping[str, Any]) -> str:
     """A simulation profile, as ``edge-vis sim`` reads it."""
     sim = _checked(path, read_sim_profile, data)
     return f"{len(sim.vehicles)} vehicle(s): " + ", ".join(
-        f"{v.name} ({v.kind}, {v.link})" for v in sim.vehicles)
+        f"{v.name} ({v.kind}{_arm(v)}, {v.link})" for v in sim.vehicles)
+
+
+def _arm(vehicle: Any) -> str:
+    arm = vehicle.manipulator
+    return f" + manipulator v{arm.version}" if arm is not None else ""
 
 
 def check_link(path: Path, data: Mapping[str, Any]) -> str:

@@ -67,6 +67,8 @@ DRIVER = "urn:jaus:jss:mobility:PrimitiveDriver"
 PLANNER = "urn:jaus:jss:mobility:GlobalWaypointListDriver"
 #: seconds between tables when stdout is not a terminal
 INTERVAL = 5.0
+#: the radio between a vehicle's image server and the relay (UDT), as bench/bulk.py has it
+IMAGE_RADIO = {"loss": 0.02, "delay": 0.020, "rate_bps": 10e6, "queue_bytes": 64 * 1024}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -327,6 +329,8 @@ class Setup:
     relay_argv: list[str]
     placement: Placement
     notes: list[str] = field(default_factory=list)
+    #: the relay profile the demo writes (moved), when it runs the shipped one
+    relay_data: dict[str, Any] | None = None
 
 
 def _parse_address(text: str) -> tuple[str, int]:
@@ -383,15 +387,52 @@ def prepare(args: argparse.Namespace, run_dir: Path) -> Setup:
             setup.relay_argv += ["--link", url]
     elif placement.moved:
         relay_path = run_dir / "relay.toml"
-        relay_path.write_text(dump_toml(move_relay(relay_data, placement, paths), header=(
+        setup.relay_data = move_relay(relay_data, placement, paths)
+        relay_path.write_text(dump_toml(setup.relay_data, header=(
             f"{DEFAULT_RELAY_PROFILE} with the links of the moved fleet "
             f"({setup.sim_profile}), written by edge-vis demo")), encoding="utf-8")
         setup.relay_argv += ["--profile", str(relay_path)]
     else:
+        setup.relay_data = relay_data
         setup.relay_argv += ["--profile", str(DEFAULT_RELAY_PROFILE.relative_to(ROOT))
                              if Path.cwd() == ROOT else str(DEFAULT_RELAY_PROFILE)]
     setup.relay_argv += ["--domain", str(placement.domain)]
     return setup
+
+
+def radio_for_images(setup: Setup, lines: list[str], run_dir: Path, lifetime: float
+                     ) -> list[Any]:
+    """Put an emulated radio (:data:`IMAGE_RADIO`) in front of each vehicle's image server
+    (the ``images=udt://`` the sim printed) and point the relay's ``[bulk.sources]`` there,
+    its images into ``run_dir``; the proxies, to stop at the end."""
+    if setup.relay_data is None or "bulk" not in setup.relay_data:
+        return []
+    from edge_vis.tools.lossy_udp import LossyProxy
+
+    proxies: list[Any] = []
+    sources: dict[str, str] = {}
+    for line in lines:
+        found = re.match(r"^(\S+) \S+ (\d+) .* images=udt://(\S+):(\d+)$", line)
+        if found is None:
+            continue
+        name, subsystem, host, port = found.groups()
+        proxy = LossyProxy((host, int(port)), listen=(host, 0), lifetime=lifetime,
+                           **IMAGE_RADIO).start()
+        proxies.append(proxy)
+        sources[f"{name}-{subsystem}"] = "{}:{}".format(*proxy.address)
+        print(f"demo: {name} serves its ATR images on udt://{host}:{port}; the relay fetches "
+              "them through an emulated radio (10 Mbit/s, 2 % loss, 20 ms) on "
+              "{}:{}".format(*proxy.address), flush=True)
+    if proxies:
+        data = dict(setup.relay_data)
+        data["bulk"] = {**data["bulk"], "dir": str(run_dir / "images"), "sources": sources}
+        relay_path = run_dir / "relay.toml"
+        relay_path.write_text(dump_toml(data, header=(
+            f"{DEFAULT_RELAY_PROFILE} with the fleet's image servers behind an emulated "
+            "radio, written by edge-vis demo")), encoding="utf-8")
+        at = setup.relay_argv.index("--profile")
+        setup.relay_argv[at + 1] = str(relay_path)
+    return proxies
 
 
 def _cause(log: Path) -> str:
@@ -453,6 +494,7 @@ def run(args: argparse.Namespace) -> int:
     interrupted = False
     failed: str | None = None
     operator: DemoOperator | None = None
+    proxies: list[Any] = []
     started = time.monotonic()
     # SIGTERM stops like Ctrl-C, and so does SIGINT even when started with it ignored
     previous = {sig: signal.signal(sig, _raise_interrupt)
@@ -472,20 +514,26 @@ def run(args: argparse.Namespace) -> int:
             return 1
         for line in lines:
             print(f"vehicle {line}")
+        proxies = radio_for_images(setup, lines, log_dir, lifetime=(
+            args.duration + 60 if args.duration is not None else 1e9))
         children.start("relay", setup.relay_argv)
         print(f"relay: edge-vis {' '.join(setup.relay_argv)}  (logs in {log_dir})")
         print(f"demo: DDS domain {domain}; another view: "
               f"edge-vis monitor --loopback --domain {domain}", flush=True)
+        sheet = ["--contact-sheet", str(log_dir / "images.html")] if proxies else []
+        if sheet:
+            print(f"demo: the latest image of each vehicle: {log_dir / 'images.html'} "
+                  "(open it in a browser)", flush=True)
         if args.duration is None:
             argv = ["monitor", "--domain", str(domain), "--operator", args.operator,
-                    "--authority", str(args.authority)]
+                    "--authority", str(args.authority), *sheet]
             if not sys.stdout.isatty():  # no screen to draw on: tables until stopped
                 argv += ["--interval", f"{args.interval:g}"]
             failed = _watch(children, children.start("monitor", argv, foreground=True))
         else:
             children.start("monitor", ["monitor", "--domain", str(domain), "--interval", "5",
                                        "--wait", "2", "--duration", str(args.duration),
-                                       "--operator", args.operator])
+                                       "--operator", args.operator, *sheet])
             deadline = started + args.duration
             operator = DemoOperator(domain, args.operator, args.authority)
             operator.script(deadline, lambda text: print(f"demo: {text}", flush=True))
@@ -504,6 +552,8 @@ def run(args: argparse.Namespace) -> int:
                 operator.release()
                 operator.poll(0.3)
             codes = children.stop()
+            for proxy in proxies:
+                proxy.stop()
         finally:
             for sig, handler in previous.items():
                 signal.signal(sig, handler)

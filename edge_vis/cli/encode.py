@@ -43,6 +43,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--jsidl", action="extend", nargs=1, default=[], metavar="FILE",
                         help="a JSIDL file or folder whose messages encode too (repeatable; as a "
                              "profile's catalogue.jsidl)")
+    parser.add_argument("--dialect", action="extend", nargs=1, default=[], metavar="NAME",
+                        help="write the message as a speaker of this dialect reads it "
+                        "(manipulator-1.0, iop; repeatable)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -60,7 +63,14 @@ def run(args: argparse.Namespace) -> int:
         fields = json.loads(args.json)
     except json.JSONDecodeError as exc:
         raise EncodeError(f"--json is not valid JSON: {exc}") from None
-    payload = catalogue.encode(definition.name, record_from_json(fields, definition.body))
+    dialects = tuple(args.dialect)
+    for name in dialects:
+        if name not in catalogue.dialects():
+            raise EncodeError(f"--dialect {name!r}: no such dialect (dialects: "
+                              f"{', '.join(sorted(catalogue.dialects()))})")
+    definition = catalogue.definition(definition.code, dialects) or definition
+    payload = catalogue.encode(definition.name, record_from_json(fields, definition.body),
+                               dialects)
     try:
         source = JausAddress.parse(args.source)
         destination = JausAddress.parse(args.destination)

@@ -16,9 +16,11 @@ import os
 import signal
 import sys
 import time
+from pathlib import Path
 from typing import Any
 
 from edge_vis.errors import EdgeVisError
+from edge_vis.tools.contact_sheet import ContactSheet
 from edge_vis.tools.monitor_view import READ_TOPICS, WRITE_TOPICS, FleetView, Operator
 
 log = logging.getLogger(__name__)
@@ -49,6 +51,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="seconds to listen before the first table (default 3)")
     parser.add_argument("--duration", type=float, metavar="S",
                         help="stop after S seconds")
+    parser.add_argument("--contact-sheet", type=Path, metavar="FILE",
+                        help="keep FILE an HTML page with the latest image of each vehicle "
+                             "(thumbnails from ImageProduct) for a browser")
     parser.add_argument("--summary", action="store_true",
                         help="with --once/--interval: also print a JSON summary at the end")
 
@@ -63,15 +68,33 @@ class _Feed:
         self.bridge = DdsBridge(args.domain, args.partition, config=config)
         self.readers = {topic: self.bridge.reader(topic) for topic in READ_TOPICS}
         self.bridge.open_writers(WRITE_TOPICS)
+        self.sheet_path: Path | None = args.contact_sheet
+        self.sheet = ContactSheet()
 
     def poll(self, view: FleetView) -> int:
         now = time.monotonic()
         count = 0
+        changed = False
         for topic, reader in self.readers.items():
             for sample in reader.take():
                 view.ingest(topic, sample, now)
+                if topic == "ImageProduct" and self.sheet_path is not None:
+                    changed = self.sheet.ingest(sample) or changed
                 count += 1
+        if changed:
+            self.write_sheet()
         return count
+
+    def write_sheet(self) -> None:
+        """Rewrite the contact sheet (atomically: a browser never reads half a page)."""
+        if self.sheet_path is None:
+            return
+        tmp = self.sheet_path.with_name(f".{self.sheet_path.name}.tmp")
+        try:
+            tmp.write_text(self.sheet.render(), encoding="utf-8")
+            tmp.replace(self.sheet_path)
+        except OSError as exc:
+            log.warning("cannot write the contact sheet %s: %s", self.sheet_path, exc)
 
     def publish(self, commands: list[tuple[str, dict[str, Any]]]) -> None:
         for topic, sample in commands:
@@ -181,6 +204,7 @@ def run(args: argparse.Namespace) -> int:
         return 2
     except EdgeVisError:
         raise
+    feed.write_sheet()
     stop: list[bool] = []
 
     def _signal(signum: int, _frame: object) -> None:

@@ -54,8 +54,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="spool quota (suffix K/M/G); new transfers beyond it are refused")
     parser.add_argument("--max-rate", type=parse_rate, metavar="BPS",
                         help="bulk budget in bit/s for forwarding (suffix k/M/G)")
-    parser.add_argument("--forward-lanes", type=int, default=1, metavar="N",
-                        help="parallel UDT connections per forwarded file (1-16, default 1)")
+    parser.add_argument("--forward-lanes", type=int, default=0, metavar="N",
+                        help="parallel UDT connections per forwarded file (1-16; default 0: "
+                             "adapt to the loss and delay the transfer meets)")
     parser.add_argument("--keys", type=Path, metavar="FILE",
                         help="pre-shared bulk keys (TOML [keys] vehicle = \"hex\"): only "
                              "these vehicles may deliver, each proving it holds its key")
@@ -85,8 +86,8 @@ def run(args: argparse.Namespace) -> int:
         forward = [udt.parse_address(f) for f in args.forward]
     except ValueError as exc:
         raise ConfigError(f"address: {exc}") from None
-    if not 1 <= args.forward_lanes <= 16:
-        raise ConfigError(f"--forward-lanes {args.forward_lanes}: must be 1..16")
+    if not 0 <= args.forward_lanes <= 16:
+        raise ConfigError(f"--forward-lanes {args.forward_lanes}: must be 0 (adapt) or 1..16")
     keys = udt.load_keys(args.keys) if args.keys is not None else None
     bridge = _bridge(args.domain, args.partition) if args.domain is not None else None
     stop = threading.Event()

@@ -55,9 +55,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--keys", type=Path, metavar="FILE",
                         help="pre-shared bulk keys (TOML [keys] vehicle = \"hex\"); the "
                              "--vehicle key answers a receiver that requires authentication")
-    parser.add_argument("--lanes", type=int, default=1, metavar="N",
-                        help="parallel UDT connections per file (1-16, default 1); on a lossy "
-                             "radio 4-6 lanes carry several times what one does")
+    parser.add_argument("--lanes", type=int, default=0, metavar="N",
+                        help="parallel UDT connections per file (1-16); default 0 adapts the "
+                             "number to the loss and delay the transfer meets")
     parser.add_argument("--give-up", type=float, default=120.0, metavar="SECONDS",
                         help="stop retrying after this long without progress (default 120)")
 
@@ -136,8 +136,8 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--to: {exc}") from None
     atr = _atr(udt, args)
     failures = 0
-    if not 1 <= args.lanes <= 16:
-        raise ConfigError(f"--lanes {args.lanes}: must be 1..16")
+    if not 0 <= args.lanes <= 16:
+        raise ConfigError(f"--lanes {args.lanes}: must be 0 (adapt) or 1..16")
     keys = udt.load_keys(args.keys) if args.keys is not None else None
     if keys is not None and args.vehicle not in keys:
         raise ConfigError(f"{args.keys}: no key for vehicle {args.vehicle!r}")

@@ -61,7 +61,10 @@ async def _main(args: argparse.Namespace) -> int:
         return 2
     try:
         for ep in sim.endpoints:
-            print(f"{ep.name} {ep.spec.kind} {ep.spec.subsystem} {ep.where}", flush=True)
+            server = sim.image_servers.get(ep.name)
+            images = " images=udt://{}:{}".format(*server.address) if server else ""
+            print(f"{ep.name} {ep.spec.kind} {ep.spec.subsystem} {ep.where}{images}",
+                  flush=True)
         with contextlib.suppress(TimeoutError):
             async with asyncio.timeout(args.duration):
                 await stop.wait()

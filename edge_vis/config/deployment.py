@@ -137,6 +137,13 @@ class ControlProfile:
     only on changes. ``authority_from_operator``: the relay holds JAUS control with the
     holding operator's authority (capped at ``relay.authority``) instead of its own, and
     follows the operator's changes (SetAuthority to lower it, RequestControl to raise it).
+
+    ``handoff_timeout``: how long the holding operator has to answer a hand-off request
+    (HandoffRequest) before the requester is told TIMEOUT; ``handoff_reassert_timeout``:
+    how long a requester may stay silent before its request lapses (it publishes the
+    request again to keep it); 0 disables either, as in IOP EnhancedAccessControl. A
+    request another JAUS client makes through the vehicle lapses after the vehicle's own
+    hand-off timeout when it reports one.
     """
 
     renewal_period: float = setting(2.0, gt=0, unit="s")
@@ -145,6 +152,8 @@ class ControlProfile:
     max_ready_attempts: int = setting(3, ge=0)
     holder_query_period: float = setting(30.0, ge=0, unit="s")
     authority_from_operator: bool = False
+    handoff_timeout: float = setting(30.0, ge=0, unit="s")
+    handoff_reassert_timeout: float = setting(0.0, ge=0, unit="s")
 
 
 @dataclass(frozen=True, slots=True)
@@ -303,9 +312,18 @@ class BulkProfile:
     #: bit/s for forwarding (None: unlimited; 0 in the file means unlimited too)
     max_rate_bps: int | None = setting(None, key="max_rate", ge=0,
                                        convert=lambda v: v or None)
-    forward_lanes: int = setting(1, ge=1, le=16)
+    #: parallel UDT connections per forwarded file; 0 adapts to the radio's loss and delay
+    forward_lanes: int = setting(0, ge=0, le=16)
     keys: Path | None = None
     publish_data: bool = True
+    #: vehicle id -> HOST:PORT of its image server (``serve-images``); "*" for any other.
+    #: An image such a vehicle announces is fetched from there.
+    sources: Mapping[str, str] = setting(factory=dict, check=_host_port)
+    #: which announced image to fetch first
+    fetch_priority: str = setting("confidence", choices=("confidence", "oldest", "newest"))
+    #: bit/s the radio gives bulk data and JAUS together (0: no budget); fetches keep to
+    #: what the relay's JAUS traffic leaves of it
+    fetch_budget: int = setting(0, ge=0, unit="bit/s")
 
 
 @dataclass(frozen=True, slots=True)

@@ -777,6 +777,9 @@ class ImageProduct(IdlStruct, typename="edge_vis::ImageProduct"):
     format: str = ""
     capture_time_ms: int64 = 0
     targets: sequence[AtrTarget] = field(default_factory=list)
+    #: a PNG of at most 96 px a side, made by the receiver that verified the file
+    #: (empty for formats the standard library cannot decode: see links/udt/thumbnail.py)
+    thumbnail_png: sequence[uint8] = field(default_factory=list)
 
 
 @dataclass
@@ -1111,13 +1114,284 @@ class DeviceCommand(IdlStruct, typename="edge_vis::DeviceCommand"):
 
 @dataclass
 class PlatformCommand(IdlStruct, typename="edge_vis::PlatformCommand"):
-    """Ask for an IOP platform state and/or mode (empty = leave unchanged)."""
+    """Ask for an IOP platform state and/or mode (empty = leave unchanged); with
+    ``update_health`` the health monitor is asked to refresh its summary."""
 
     vehicle_id: str
     key("vehicle_id")
     operator_id: str
     platform_state: str = ""
     platform_mode: str = ""
+    update_health: bool = False
+
+# --------------------------------------------------------------------------- IOP and UGV extras
+
+
+@dataclass
+class HandoffRequest(IdlStruct, typename="edge_vis::HandoffRequest"):
+    """An operator asks the operator holding a vehicle to hand it over (``action``
+    REQUEST; publish it again within the re-assert timeout to keep it), or withdraws
+    (CANCEL). IOP EnhancedAccessControl."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    authority: uint8 = 0
+    explanation: str = ""
+    action: str = "REQUEST"
+
+
+@dataclass
+class HandoffResponse(IdlStruct, typename="edge_vis::HandoffResponse"):
+    """The holder's answer to hand-off request ``request_id``: GRANTED (the requester holds
+    the vehicle from now on), DENIED, or WAIT (decide later; the timeout restarts)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    request_id: uint8
+    response: str = "DENIED"
+
+
+@dataclass
+class HandoffEntry(IdlStruct, typename="edge_vis::HandoffEntry"):
+    """One hand-off request: ``requester`` an operator, or ``jaus:S.N.C`` for another JAUS
+    client asking through vehicle component ``via``; ``state`` PENDING or DEFERRED while
+    the holder decides, then GRANTED, DENIED, TIMEOUT, CANCELLED, NOT_AVAILABLE or
+    INSUFFICIENT_AUTHORITY, with the ``reason``."""
+
+    request_id: uint8 = 0
+    requester: str = ""
+    authority: uint8 = 0
+    explanation: str = ""
+    state: str = ""
+    reason: str = ""
+    via: str = ""
+
+
+@dataclass
+class HandoffStatus(IdlStruct, typename="edge_vis::HandoffStatus"):
+    """Hand-off requests of a vehicle for its ``holder`` to answer, and their outcomes;
+    the timeouts in force (s, 0 = none; the vehicle's own NaN when it reports none)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    holder: str = ""
+    handoff_timeout: float64 = 0.0
+    reassert_timeout: float64 = 0.0
+    vehicle_handoff_timeout: float64 = NAN
+    requests: sequence[HandoffEntry] = field(default_factory=list)
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class CostMap(IdlStruct, typename="edge_vis::CostMap"):
+    """A 2-D cost map (IOP CostMap2D): ``rows`` x ``columns`` cells, row-major, over
+    ``width`` x ``height`` m centred at the GLOBAL (deg) or LOCAL (m) centre, rotated by
+    ``rotation`` rad; ``costs`` per cell 0..255, ``confidence`` percent per cell (empty when
+    the vehicle sends none)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    rows: uint16 = 0
+    columns: uint16 = 0
+    width: float64 = NAN
+    height: float64 = NAN
+    frame: Frame = Frame.GLOBAL
+    center_latitude: float64 = NAN
+    center_longitude: float64 = NAN
+    center_x: float64 = NAN
+    center_y: float64 = NAN
+    rotation: float64 = NAN
+    costs: sequence[uint8] = field(default_factory=list)
+    confidence: sequence[float64] = field(default_factory=list)
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class CostMapRequest(IdlStruct, typename="edge_vis::CostMapRequest"):
+    """Ask for a cost map of at most ``max_width`` x ``max_height`` m (NaN: the vehicle's
+    choice) around a GLOBAL (deg) or LOCAL (m) centre (NaN: the vehicle's)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str = ""
+    max_width: float64 = NAN
+    max_height: float64 = NAN
+    frame: Frame = Frame.GLOBAL
+    center_latitude: float64 = NAN
+    center_longitude: float64 = NAN
+    center_x: float64 = NAN
+    center_y: float64 = NAN
+    rotation: float64 = 0.0
+
+
+@dataclass
+class NoGoZone(IdlStruct, typename="edge_vis::NoGoZone"):
+    """A polygon the vehicle must not enter: GLOBAL (lat/lon) or LOCAL (x/y) vertices."""
+
+    zone_id: uint16 = 0
+    frame: Frame = Frame.GLOBAL
+    vertices: sequence[Waypoint] = field(default_factory=list)
+
+
+@dataclass
+class NoGoZones(IdlStruct, typename="edge_vis::NoGoZones"):
+    """Every no-go zone the vehicle holds."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    zones: sequence[NoGoZone] = field(default_factory=list)
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class NoGoZoneCommand(IdlStruct, typename="edge_vis::NoGoZoneCommand"):
+    """ADD a no-go zone (``vertices`` in ``frame``; the vehicle answers with its zone id in
+    ``RequestResult``, matched by ``request_id``) or REMOVE zone ``zone_id``."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    action: str = "ADD"
+    request_id: uint16 = 0
+    zone_id: uint16 = 0
+    frame: Frame = Frame.GLOBAL
+    vertices: sequence[Waypoint] = field(default_factory=list)
+
+
+@dataclass
+class RequestResult(IdlStruct, typename="edge_vis::RequestResult"):
+    """A vehicle's answer to a request that carries an ID: ``request`` names it
+    (AddNoGoZone, DigitalResourceEndpoint for a register or remove),
+    ``result`` how it went, ``id`` what the vehicle assigned (zone, endpoint)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    request: str
+    key("request")
+    request_id: uint16 = 0
+    result: str = ""
+    id: uint32 = 0
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class DigitalResourceCommand(IdlStruct, typename="edge_vis::DigitalResourceCommand"):
+    """REGISTER an endpoint (``url``, ``server_type`` RTSP, MPEG2_TS, FTP, SFTP,
+    FTP_over_SSH, HTTP, HTTPS, SCP; optional ``jaus_address`` S.N.C and ``resource_id``) with
+    the vehicle's DigitalResourceDiscovery, or REMOVE endpoint ``endpoint_id``."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    action: str = "REGISTER"
+    request_id: uint8 = 0
+    url: str = ""
+    server_type: str = "RTSP"
+    jaus_address: str = ""
+    resource_id: int32 = -1
+    endpoint_id: uint32 = 0
+
+
+@dataclass
+class CbrnStatus(IdlStruct, typename="edge_vis::CbrnStatus"):
+    """State of one CBRN payload station (IOP CBRNSensor; ``station`` 1..32, 0 = the
+    payload as a whole): the operating, configuration and scan window reports merged; each
+    report's every field by its JAUS name in ``operating``, ``configuration`` and
+    ``scan_window`` (enumerations as their number)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    station: uint32
+    key("station")
+    payload_state: str = ""
+    operating_mode: str = ""
+    sampling_state: str = ""
+    product_name: str = ""
+    payload_type: str = ""
+    power_mode: str = ""
+    battery_remaining: float64 = NAN
+    operating: sequence[GenericField] = field(default_factory=list)
+    configuration: sequence[GenericField] = field(default_factory=list)
+    scan_window: sequence[GenericField] = field(default_factory=list)
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class CbrnDetection(IdlStruct, typename="edge_vis::CbrnDetection"):
+    """A CBRN report of one station: ``kind`` CBRN4 (ATP-45 text) or MEASUREMENT (detailed
+    measurement text), ``detection`` Below/Above Threshold, Above Threshold Update or NIL."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    station: uint32
+    key("station")
+    kind: str
+    key("kind")
+    detection: str = ""
+    report_id: int64 = -1
+    text: str = ""
+    time: float64 = NAN
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class CbrnCommand(IdlStruct, typename="edge_vis::CbrnCommand"):
+    """Command a CBRN payload station (1..32, 0 = all): ``kind`` COMMAND (CBRNCommand),
+    CONFIGURATION (CBRNConfigurationCommand, which needs ``set_cbrn4_delivery_mode``) or
+    DISPLAY (CBRNDisplayConfigurationCommand); ``settings`` names the JAUS fields
+    (``set_power_mode``) with a label in ``text`` (``On``) or a ``number``."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    station: uint8 = 0
+    kind: str = "COMMAND"
+    settings: sequence[GenericField] = field(default_factory=list)
+
+
+@dataclass
+class SkidSteerCommand(IdlStruct, typename="edge_vis::SkidSteerCommand"):
+    """Open-loop track efforts, percent -100..100 (UGV SkidSteerDriver); a motion command."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    left_effort: float64 = 0.0
+    right_effort: float64 = 0.0
+
+
+@dataclass
+class AckermannCommand(IdlStruct, typename="edge_vis::AckermannCommand"):
+    """Open-loop steering (rad), throttle and brake (percent 0..100) (UGV AckermannDriver);
+    rate (rad/s) and torque (N m) limits optional. A motion command."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    steering_angle: float64 = 0.0
+    throttle_effort: float64 = 0.0
+    brake_effort: float64 = 0.0
+    max_steering_rate: Optional[float64] = None  # noqa: UP045 (cyclonedds needs Optional)
+    max_steering_torque: Optional[float64] = None  # noqa: UP045
+
+
+@dataclass
+class DeviceCapabilities(IdlStruct, typename="edge_vis::DeviceCapabilities"):
+    """What a UGV device can do: ``supported`` names (lights, sounders, gears, transfer case
+    modes) and ``limits`` (a stabilizer's angles, a power plant's capacities) by name with
+    their unit in ``text``; ``points`` a stabilizer's outline (m)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    device: str
+    key("device")
+    supported: sequence[str] = field(default_factory=list)
+    limits: sequence[GenericField] = field(default_factory=list)
+    points: sequence[Waypoint] = field(default_factory=list)
+    timestamp_ms: int64 = 0
+
 
 
 # --------------------------------------------------------------------------- mobility extras
@@ -1314,6 +1588,21 @@ STRUCTS: tuple[type[IdlStruct], ...] = (
     EndEffectorCommand,
     DeviceCommand,
     PlatformCommand,
+    HandoffRequest,
+    HandoffResponse,
+    HandoffStatus,
+    CostMap,
+    CostMapRequest,
+    NoGoZones,
+    NoGoZoneCommand,
+    RequestResult,
+    DigitalResourceCommand,
+    CbrnStatus,
+    CbrnDetection,
+    CbrnCommand,
+    SkidSteerCommand,
+    AckermannCommand,
+    DeviceCapabilities,
     WrenchEffortState,
     VelocityCommandState,
     VectorState,

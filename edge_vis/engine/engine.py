@@ -23,7 +23,8 @@ components (:mod:`~edge_vis.engine.access`), who else holds them (:mod:`~edge_vi
 the vehicles' clocks (:mod:`~edge_vis.engine.clocks`), event subscriptions with polling fallback
 (:mod:`~edge_vis.engine.reports`), command throttles and the dead-man
 (:mod:`~edge_vis.engine.commands`), operator arbitration
-(:mod:`~edge_vis.engine.control_requests`) and the emergency stop
+(:mod:`~edge_vis.engine.control_requests`), hand-offs between operators
+(:mod:`~edge_vis.engine.handoff_requests`) and the emergency stop
 (:mod:`~edge_vis.engine.estop`). Report rates follow the bandwidth plan
 (:mod:`~edge_vis.engine.rates`); the timer pass is :mod:`~edge_vis.engine.timer_pass`; what
 translators see is built by :mod:`~edge_vis.engine.views`. Those parts share one
@@ -54,6 +55,8 @@ from edge_vis.engine.commands import Commands
 from edge_vis.engine.control_requests import ControlRequests
 from edge_vis.engine.estop import EmergencyStops
 from edge_vis.engine.finder import Finder
+from edge_vis.engine.handoff_requests import TOPICS as HANDOFF_TOPICS
+from edge_vis.engine.handoff_requests import HandoffRequests
 from edge_vis.engine.holders import Holders
 from edge_vis.engine.liveness import LIVENESS, MANAGEMENT, STATUS_EVERY, Liveness
 from edge_vis.engine.manager import TranslationManager
@@ -117,10 +120,12 @@ class Engine:
         self._control_requests = ControlRequests(state, self._access, self._changed)
         self._estop = EmergencyStops(state, self._changed)
         self._holders = Holders(state, self._changed)
+        self._handoffs = HandoffRequests(state, self._access, self._changed)
         self._clocks = Clocks(state, self._access, self._changed)
         self._timer_pass = TimerPass(state, self._finder, self._liveness, self._access,
                                     self._reports, self._commands, self._rates, self._estop,
-                                    (self._holders.poll, self._clocks.poll))
+                                    (self._holders.poll, self._clocks.poll,
+                                     self._handoffs.poll))
         #: the JAUS messages the engine itself handles, by name
         self._handlers: dict[str, Handler] = {
             "ReportServices": self._finder.on_services,
@@ -135,6 +140,12 @@ class Engine:
             "ConfirmEventRequest": self._reports.on_confirm,
             "RejectEventRequest": self._reports.on_reject,
             "ReportEventTimeout": self._reports.on_event_timeout,
+            "RequestReleaseControl": self._handoffs.on_release_request,
+            "ConfirmHandoffRequest": self._handoffs.on_confirm_handoff,
+            "ReportHandoffTimeout": lambda v, _s, f, now: self._handoffs.on_timeouts(
+                v, "ReportHandoffTimeout", f, now),
+            "ReportEnhancedTimeout": lambda v, _s, f, now: self._handoffs.on_timeouts(
+                v, "ReportEnhancedTimeout", f, now),
         }
 
     # == shared state, as attributes ======================================================
@@ -253,6 +264,11 @@ class Engine:
         state.counters["samples_received"] += 1
         if topic == "ControlRequest":
             self._control_requests.on_sample(sample, now)
+            vehicle = state.by_id.get(str(sample.get("vehicle_id", "")))
+            if vehicle is not None:
+                self._handoffs.settle(vehicle, now)
+        elif topic in HANDOFF_TOPICS:
+            self._handoffs.on_sample(topic, sample, now)
         else:
             vehicle = state.by_id.get(str(sample.get("vehicle_id", "")))
             ctx = self._views.context(vehicle, now)
@@ -380,6 +396,14 @@ class Engine:
             self._estop.on_identified(vehicle, now)
         self._apply(self.manager.on_vehicle(change, self._views.context(vehicle, now)), now)
 
+    def _merged(self, action: Publish) -> Publish:
+        """``action``'s sample over the latest of its instance (see ``Publish.merge``)."""
+        key = (action.topic, tuple(action.sample.get(k) for k in action.merge))
+        merged = self._state.merged.setdefault(key, {})
+        merged.update({k: v for k, v in action.sample.items()
+                       if k not in merged or not (v is None or v != v)})
+        return Publish(action.topic, dict(merged))
+
     def _apply(self, actions: Sequence[Action], now: float) -> None:
         """Translators' actions: commands are admitted, vehicles declared, the rest queued."""
         for action in actions:
@@ -390,6 +414,8 @@ class Engine:
                                      action.vehicle_type, now, seen=True)
             elif isinstance(action, EmergencyRequest):
                 self._estop.request(action, now)
+            elif isinstance(action, Publish) and action.merge:
+                self._state.actions.append(self._merged(action))
             elif isinstance(action, Publish | SendMessage):
                 self._state.actions.append(action)
             else:

@@ -1,7 +1,8 @@
 """The JAUS messages the engine itself sends and handles, declared once. No I/O.
 
 Translators map reports and commands; discovery, access control, events, liveness, time
-and the emergency stop are the engine's own (AS5710A core services). ``edge-vis mappings``
+and the emergency stop are the engine's own (AS5710A core services), and so is the IOP
+hand-off between operators (EnhancedAccessControl, HandoffController). ``edge-vis mappings``
 counts these as *on the wire, handled by the engine* and a test checks the declaration
 against the engine's code, so the table cannot claim a message the engine never uses.
 
@@ -30,6 +31,10 @@ ENGINE_RECEIVES: Mapping[str, str] = {
     "RejectEventRequest": "an event refused: the report is polled instead",
     "ReportEventTimeout": "how often events must be renewed",
     "Event": "carries a report: unwrapped and given to its translator",
+    "RequestReleaseControl": "hand-off: another client asks for a vehicle an operator holds",
+    "ConfirmHandoffRequest": "hand-off: the vehicle's answer to the relay's RequestHandoff",
+    "ReportHandoffTimeout": "hand-off: how long requests through the vehicle stay open",
+    "ReportEnhancedTimeout": "hand-off: the vehicle's re-assert timeout",
 }
 
 #: messages the engine sends on its own -> why
@@ -55,6 +60,11 @@ ENGINE_SENDS: Mapping[str, str] = {
     "QueryEventTimeout": "event renewal period",
     "SetEmergency": "emergency stop",
     "ClearEmergency": "emergency stop cleared",
+    "ConfirmReleaseControl": "hand-off: the holding operator's answer",
+    "RequestHandoff": "hand-off: an operator asks for a vehicle another client holds",
+    "RemoveHandoffRequest": "hand-off: that operator withdraws",
+    "QueryHandoffTimeout": "hand-off timeout of a vehicle with EnhancedAccessControl",
+    "QueryEnhancedTimeout": "re-assert timeout of a vehicle with EnhancedAccessControl",
 }
 
 #: every message the engine handles on the wire, either way

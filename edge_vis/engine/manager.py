@@ -9,7 +9,8 @@ subscribed topic is claimed twice (each must go to exactly one translator), and 
 :class:`~edge_vis.errors.PluginConflictError` naming both claimants otherwise. Several
 translators may *publish* one topic (still images and ATR images are both image
 products): a DDS topic has many writers, each keyed by its vehicle. The engine itself owns
-the ``ControlRequest`` topic (operator arbitration).
+the ``ControlRequest``, ``HandoffRequest`` and ``HandoffResponse`` topics (operator
+arbitration).
 
 A translator is a plugin, so it may fail: an exception from any hook, on either
 direction, is caught here, counted per translator (:attr:`TranslationManager.errors`,
@@ -35,7 +36,7 @@ log = logging.getLogger(__name__)
 
 ENGINE = "engine"
 #: Topics the engine reads itself.
-ENGINE_SUBSCRIBES = ("ControlRequest",)
+ENGINE_SUBSCRIBES = ("ControlRequest", "HandoffRequest", "HandoffResponse")
 
 
 class TranslationManager:

@@ -41,18 +41,24 @@ class InnerCodec(Protocol):
 
 def dialects_of(catalogue: Any, vehicle: Vehicle) -> tuple[str, ...]:
     """The message dialects ``vehicle`` speaks: its profile's ``dialects`` when given,
-    else those its services are recognised by (none: the base definitions)."""
+    else those its services are recognised by (none: the base definitions), keeping the
+    base definition of a code it carries in a service of that definition's version
+    (:meth:`~edge_vis.catalogue.Catalogue.speaks`: a vehicle reporting 1.x and 2.x
+    manipulator services reads each such message as the service carrying it defines it)."""
     for profile in (vehicle.profile, vehicle.announced_by):
         if profile is not None and profile.dialects is not None:
             return profile.dialects
-    recognise = getattr(catalogue, "recognise", None)
-    if recognise is None or not vehicle.components:
+    speaks = getattr(catalogue, "speaks", None) or getattr(catalogue, "recognise", None)
+    if speaks is None or not vehicle.components:
         return ()
-    services = vehicle.all_services()
+    # every (uri, version) of every component: two versions of one service both count
+    services = tuple(sorted({s for found in vehicle.components.values() for s in found}))
     cached = vehicle.dialect_cache
     if cached is not None and cached[0] == services:
         return cached[1]
-    found: tuple[str, ...] = tuple(recognise(services))
+    found: tuple[str, ...] = speaks(services)
+    if not isinstance(found, tuple):
+        found = tuple(found)
     vehicle.dialect_cache = (services, found)
     return found
 
@@ -82,6 +88,8 @@ class EngineState:
         #: a subscription started or stopped polling: the rates must be planned again
         self.plan_dirty = False
         self.shutting_down = False
+        #: (topic, instance key) -> the latest merged sample (Publish with ``merge``)
+        self.merged: dict[tuple[str, tuple[Any, ...]], dict[str, Any]] = {}
         #: ShutdownComplete was emitted: the engine takes no more input
         self.done = False
         self._catalogue = catalogue

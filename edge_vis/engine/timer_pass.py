@@ -144,6 +144,7 @@ class TimerPass:
                 if v.online:
                     times.append(v.next_holder_query)
                     times.append(v.next_time_query)
+                    times.append(v.handoffs.next_deadline())
                 if v.online and v.last_seen is not None:
                     times.append(v.last_seen + v.silence_timeout(silence) + 1e-6)
                 for key, slot in v.commands.items():

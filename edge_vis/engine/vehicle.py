@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from edge_vis.config import VehicleProfile
-from edge_vis.engine.arbitration import Arbitration
+from edge_vis.engine.arbitration import Arbitration, Handoffs
 from edge_vis.engine.command_slots import CommandSlot
 from edge_vis.engine.control import ComponentControl
 from edge_vis.engine.discovery import Service, ServiceDiscovery, with_inherited
@@ -48,6 +48,12 @@ class Vehicle:
     subscriptions: dict[tuple[JausAddress, str], Subscription] = field(default_factory=dict)
     commands: dict[str, CommandSlot] = field(default_factory=dict)
     arbitration: Arbitration = field(default_factory=Arbitration)
+    #: IOP hand-off requests to the holder (:mod:`edge_vis.engine.handoff_requests`)
+    handoffs: Handoffs = field(default_factory=Handoffs)
+    #: the hand-off and re-assert timeouts its EnhancedAccessControl reports (s; None:
+    #: not known), and ``times_lost`` when they were asked since found
+    handoff_timeouts: tuple[float | None, float | None] = (None, None)
+    handoff_round: int = -1
     event_timeout_asked: set[JausAddress] = field(default_factory=set)
     request_counter: int = 0
     times_lost: int = 0

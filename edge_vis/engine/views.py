@@ -9,15 +9,19 @@ report path). Status displays get an :class:`EngineSnapshot`.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 
 from edge_vis.engine.access import jaus_control
 from edge_vis.engine.control import EMERGENCY
+from edge_vis.engine.handoff_requests import handoff_view
 from edge_vis.engine.state import EngineState
 from edge_vis.engine.vehicle import Vehicle
 from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.contract import TranslatorContext, VehicleView
+
+NAN = math.nan
 
 
 @dataclass(frozen=True, slots=True)
@@ -66,6 +70,7 @@ class Views:
         notes = tuple(f"{a}: {c.note}" for a, c in sorted(vehicle.controls.items()) if c.note)
         last_ms = (int((vehicle.last_seen + state.wall_offset) * 1000)
                    if vehicle.last_seen is not None else 0)
+        dialects = state.dialects(vehicle)
         return VehicleView(
             vehicle_id=vehicle.vehicle_id,
             subsystem=vehicle.subsystem,
@@ -91,7 +96,13 @@ class Views:
             emergency=vehicle.estop is not None or EMERGENCY in vehicle.statuses.values(),
             emergency_operator=vehicle.estop.operator_id if vehicle.estop else "",
             emergency_reason=vehicle.estop.reason if vehicle.estop else "",
-            dialects=self._state.dialects(vehicle),
+            handoffs=tuple(handoff_view(e) for e in vehicle.handoffs.entries),
+            handoff_timeout=state.profile.control.handoff_timeout,
+            handoff_reassert_timeout=state.profile.control.handoff_reassert_timeout,
+            vehicle_handoff_timeout=(vehicle.handoff_timeouts[0]
+                                     if vehicle.handoff_timeouts[0] is not None else NAN),
+            dialects=tuple(dialects),
+            base_codes=getattr(dialects, "base", frozenset()),
         )
 
     def context(self, vehicle: Vehicle | None, now: float,

@@ -38,6 +38,7 @@ from edge_vis.kit.actions import (
 from edge_vis.kit.contract import (
     STATUS_NAMES,
     ClockView,
+    HandoffView,
     HolderView,
     ReportSpec,
     TopicDecl,
@@ -96,6 +97,7 @@ __all__ = [
     "EmergencyRequest",
     "EncodeError",
     "From",
+    "HandoffView",
     "HolderView",
     "JausAddress",
     "Publish",

@@ -55,10 +55,17 @@ class SendMessage:
 
 @dataclass(frozen=True, slots=True)
 class Publish:
-    """Write one sample to a DDS topic; the bridge turns the dict into the topic's type."""
+    """Write one sample to a DDS topic; the bridge turns the dict into the topic's type.
+
+    ``merge`` names the members that identify the instance (``("vehicle_id",)``): the
+    engine then publishes the sample merged over the latest one of that instance, whoever
+    published it, so several reports (of several translators) can fill one state topic
+    without clearing each other's members; a member that is absent or NaN keeps its
+    earlier value."""
 
     topic: str
     sample: Mapping[str, Any]
+    merge: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)

@@ -100,6 +100,22 @@ class HolderView:
 
 
 @dataclass(frozen=True, slots=True)
+class HandoffView:
+    """One request to hand a vehicle over (IOP EnhancedAccessControl): ``requester`` is an
+    operator id, or ``jaus:S.N.C`` for another JAUS client asking through the vehicle
+    component ``via``; ``state`` PENDING or DEFERRED while the holder decides, then
+    GRANTED, DENIED, TIMEOUT, CANCELLED, NOT_AVAILABLE or INSUFFICIENT_AUTHORITY."""
+
+    request_id: int
+    requester: str
+    authority: int
+    explanation: str = ""
+    state: str = "PENDING"
+    reason: str = ""
+    via: str = ""
+
+
+@dataclass(frozen=True, slots=True)
 class ClockView:
     """A vehicle's clock against the relay's: ``offset`` seconds (vehicle minus relay, the
     message's flight time taken as half the round trip ``round_trip``), read from
@@ -119,7 +135,8 @@ class VehicleView:
     ``state`` is the most severe management status of its components (``"READY"``,
     ``"EMERGENCY"``...), ``"UNKNOWN"`` before any ReportStatus, ``"OFFLINE"`` when lost.
     ``services`` are ``(uri, version)`` pairs over all components. ``holders`` says who
-    holds each component with AccessControl, ``clock`` how far its clock is off.
+    holds each component with AccessControl, ``clock`` how far its clock is off,
+    ``handoffs`` who asked the holder to hand it over.
     """
 
     vehicle_id: str
@@ -147,9 +164,22 @@ class VehicleView:
     emergency_reason: str = ""
     holders: tuple[HolderView, ...] = ()
     clock: ClockView | None = None
+    #: hand-off requests to the holder (open ones and the latest outcomes), the relay's
+    #: hand-off and re-assert timeouts (s, 0 = none) and the vehicle's own (NaN: unknown)
+    handoffs: tuple[HandoffView, ...] = ()
+    handoff_timeout: float = 0.0
+    handoff_reassert_timeout: float = 0.0
+    vehicle_handoff_timeout: float = float("nan")
     #: the message dialects it speaks (``manipulator-1.0``, ``iop``): its messages are
     #: decoded and encoded with those definitions
     dialects: tuple[str, ...] = ()
+    #: codes it reads in the base definition although one of ``dialects`` defines them
+    #: (it carries them in a service of the base definition's version)
+    base_codes: frozenset[int] = frozenset()
+
+    def speaks(self, dialect: str, code: int) -> bool:
+        """Whether message ``code`` to or from it is read in ``dialect``'s definition."""
+        return dialect in self.dialects and code not in self.base_codes
 
 
 @dataclass(frozen=True, slots=True)
@@ -243,8 +273,9 @@ class Translator(ABC):  # noqa: B024 - every hook has a harmless default
         ``change`` is one of ``"identified"`` (identity or services learnt),
         ``"online"``, ``"offline"``, ``"status"`` (management state), ``"control"``
         (operator arbitration, JAUS access control, who holds each component),
-        ``"emergency"`` (an emergency stop set, confirmed or cleared through the relay) and
-        ``"clock"`` (a new reading of the vehicle's clock).
+        ``"emergency"`` (an emergency stop set, confirmed or cleared through the relay),
+        ``"clock"`` (a new reading of the vehicle's clock) and ``"handoff"`` (a hand-off
+        request made, answered or timed out).
         """
         return []
 

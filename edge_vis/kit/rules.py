@@ -21,7 +21,8 @@ JAUS -> DDS, a :class:`ReportRule`: ``fields`` maps each DDS member to a value s
 alternative of a variant). ``merge`` keeps the latest value of every member per instance,
 so a state topic fed by several reports (``PlatformStatus`` from ``ReportPlatformState``
 and ``ReportPlatformMode``) never clears what another report said, and a member a report
-did not carry (NaN) keeps its earlier value.
+did not carry (NaN) keeps its earlier value; the engine merges such samples across
+translators too (``HealthStatus`` from the health monitor and the power plant).
 
 DDS -> JAUS, a :class:`CommandRule`: ``fields`` maps JAUS field paths to :class:`Put`
 (one DDS member, clamped to the JAUS field's limits) or :class:`PutEach` (a JAUS list from
@@ -485,8 +486,9 @@ class RuleTranslator(Translator):
             return []
         actions: list[Action] = []
         for rule in self._by_message.get(name, ()):
+            merge = ("vehicle_id", *rule.keys) if rule.merge else ()
             for sample in self.samples(rule, fields, ctx):
-                actions.append(Publish(rule.topic, sample))
+                actions.append(Publish(rule.topic, sample, merge))
         return actions
 
     def samples(self, rule: ReportRule, fields: Mapping[str, Any],

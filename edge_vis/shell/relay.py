@@ -100,6 +100,7 @@ class Runtime:
         self._log = LogLimiter(log)
         self.first_discovery_at: float | None = None
         self.images: Any = None  # the UDT image service, when the profile has [bulk]
+        self.jaus_bps = 0.0  # JAUS traffic on all links now (bit/s): the bulk budget's share
         #: the bandwidth planner, when a link has a link profile (see edge_vis.bandwidth)
         self.planner: FleetPlanner | None = None
 
@@ -181,6 +182,8 @@ class Runtime:
             quota_bytes=bulk.quota_bytes, publish=publish, publish_data=bulk.publish_data,
             max_rate_bps=bulk.max_rate_bps, forward_lanes=bulk.forward_lanes,
             keys=udt.load_keys(bulk.keys) if bulk.keys is not None else None,
+            sources=bulk.sources, fetch_priority=bulk.fetch_priority,
+            fetch_budget_bps=bulk.fetch_budget or None, reserved_bps=lambda: self.jaus_bps,
         ).start()
         host, port = self.images.address
         log.info("receiving images over UDT on %s:%d into %s%s", host, port, bulk.directory,
@@ -434,6 +437,9 @@ class Runtime:
         self.counters["messages sent"] += 1
 
     def _publish(self, topic: str, sample: Mapping[str, Any]) -> None:
+        if topic == "ImageProduct" and self.images is not None \
+                and not sample.get("transfer_id"):
+            sample = self.images.announce(sample)  # one product per image; fetch it
         self.counters["samples out"] += 1
         if self.publisher is None:
             return
@@ -545,13 +551,16 @@ class Runtime:
             if now >= next_totals:
                 next_totals = now + TOTALS_PERIOD
                 self.log_totals()
+            jaus_bps = 0.0
             for sample in self.link_status():
                 total = sample["bytes_in"] + sample["bytes_out"]
                 then, before = previous.get(sample["link"], (now, total))
                 if now > then:
                     sample["measured_bps"] = (total - before) * 8 / (now - then)
+                    jaus_bps += sample["measured_bps"]
                 previous[sample["link"]] = (now, total)
                 self._publish("LinkStatus", sample)
+            self.jaus_bps = jaus_bps
 
 
 def _code_of(catalogue: Catalogue, action: SendMessage) -> str | int:

@@ -241,13 +241,19 @@ def _host_port(url: str, default_port: int = JUDP_PORT) -> Address | None:
 
 
 def fleet_addresses(data: Mapping[str, Any]) -> list[Address]:
-    """The UDP addresses the vehicles of a parsed simulation profile bind."""
+    """The UDP addresses the vehicles of a parsed simulation profile bind (JAUS links and
+    UDT image servers)."""
     out = []
     for vehicle in data.get("vehicles", []) or []:
         link = vehicle.get("link") if isinstance(vehicle, Mapping) else None
         if isinstance(link, str) and link.startswith("udp:"):
             address = _host_port(link)
             if address is not None:
+                out.append(address)
+        served = vehicle.get("image_server") if isinstance(vehicle, Mapping) else None
+        if isinstance(served, str) and served:
+            address = _host_port(f"udp://{served}")
+            if address is not None and address[1]:
                 out.append(address)
     return out
 
@@ -281,6 +287,11 @@ def move_fleet(data: Mapping[str, Any], placement: Placement, folder: Path
             address = _host_port(link)
             if address is not None:
                 vehicle["link"] = "udp://{}:{}".format(*placement.address(*address))
+        served = vehicle.get("image_server")
+        if isinstance(served, str) and served:
+            address = _host_port(f"udp://{served}")
+            if address is not None:
+                vehicle["image_server"] = "{}:{}".format(*placement.address(*address))
         for key, new in (("pty_link", folder / f"{name}.pty"),
                          ("pty_path_file", folder / f"{name}.pty-path"),
                          ("atr_dir", folder / "atr")):

@@ -25,10 +25,14 @@ READ_TOPICS: tuple[str, ...] = (
     "EnvironmentalData", "TransferStatus", "VehicleClock",
     "VehiclePlan", "SpoolerStatus",
     "SensorState",
+    "HandoffStatus",
 )
+#: manipulators and pan-tilts: joint positions, labelled with the names their
+#: specifications give (joint i when a vehicle names none, as manipulator v1.0 does)
+READ_TOPICS += ("JointState", "JointSpecification")
 #: command topics the monitor writes
 WRITE_TOPICS: tuple[str, ...] = ("ControlRequest", "WrenchEffortCommand", "WaypointPlan",
-                                 "EmergencyCommand")
+                                 "EmergencyCommand", "HandoffRequest", "HandoffResponse")
 #: topics counted as telemetry in a vehicle's rate column
 TELEMETRY = frozenset({"GlobalPose", "LocalPose", "Velocity", "RangeScan",
                        "EnvironmentalData"})
@@ -99,9 +103,14 @@ class VehicleRow:
     last_rejection: str = ""
     #: camera (sensor id) -> its video stream state as last asked for (PLAY, PAUSE, STOP)
     streams: dict[int, str] = field(default_factory=dict)
+    #: hand-off requests: (request id, requester, authority, state, explanation)
+    handoffs: list[tuple[int, str, int, str, str]] = field(default_factory=list)
     samples: Counter[str] = field(default_factory=Counter)
     rates: dict[str, RateMeter] = field(default_factory=dict)
     last_seen: float = 0.0
+    #: per device (manipulator, pan_tilt): joint names, and (value, unit) per joint
+    joint_names: dict[str, list[str]] = field(default_factory=dict)
+    joints: dict[str, list[tuple[float, str]]] = field(default_factory=dict)
 
     def rate(self, now: float, topics: Iterable[str] = TELEMETRY) -> float:
         """Telemetry samples per second for this vehicle."""
@@ -184,6 +193,12 @@ class FleetView:
                         int(h.get("authority", 0) or 0), bool(h.get("is_relay", False)))
                        for h in s.get("holders", None) or []]
 
+    def _on_HandoffStatus(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        row.handoffs = [(int(r.get("request_id", 0)), str(r.get("requester", "")),
+                         int(r.get("authority", 0) or 0), str(r.get("state", "")),
+                         str(r.get("explanation", "") or ""))
+                        for r in s.get("requests", None) or []]
+
     def _on_VehicleClock(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
         offset = s.get("offset_ms")
         row.clock_offset = offset / 1000.0 if isinstance(offset, int | float) and not (
@@ -219,6 +234,16 @@ class FleetView:
     def _on_EnvironmentalData(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
         if s.get("depth") is not None:
             row.depth = s["depth"]
+
+    def _on_JointSpecification(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        row.joint_names[str(s.get("device", ""))] = [str(n) for n in s.get("names") or ()]
+
+    def _on_JointState(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
+        if s.get("quantity") == "position":
+            units = list(s.get("units") or ())
+            row.joints[str(s.get("device", ""))] = [
+                (float(v), units[i] if i < len(units) else "")
+                for i, v in enumerate(s.get("values") or ())]
 
     # -- output ---------------------------------------------------------------------------
 
@@ -288,6 +313,12 @@ class FleetView:
                 extra.append(f"clock {row.clock_offset:+.2f} s")
             if extra:
                 lines.append(("   " + ", ".join(extra))[:width])
+            lines += [line[:width] for line in _joint_lines(row)]
+            for request_id, requester, authority, state, why in row.handoffs:
+                if state in ("PENDING", "DEFERRED"):
+                    reason = f" '{why}'" if why else ""
+                    lines.append((f"   HAND-OFF #{request_id} to {requester} ({authority})"
+                                  f"{reason} {state.lower()}: a = grant, n = refuse")[:width])
         if not self.vehicles:
             lines.append(" (no vehicle seen yet)")
         if self.links:
@@ -320,6 +351,18 @@ class FleetView:
             "samples_per_topic": dict(sorted(self.samples.items())),
             "faults_recovered": sum(row.recovered for row in self.vehicles.values()),
         }
+
+
+def _joint_lines(row: VehicleRow) -> list[str]:
+    """One line per device with joints: each joint's name (or number) and position."""
+    out = []
+    for device, joints in sorted(row.joints.items()):
+        names = row.joint_names.get(device, [])
+        shown = [f"{names[i] if i < len(names) and names[i] else f'j{i + 1}'} "
+                 f"{value:.2f}{' ' + unit if unit else ''}"
+                 for i, (value, unit) in enumerate(joints)]
+        out.append(f"   {device.replace('_', '-')}: " + ", ".join(shown))
+    return out
 
 
 # -- operator commands --------------------------------------------------------------------
@@ -369,7 +412,8 @@ class Operator:
 
     Keys: Up/Down select a vehicle (or, in drive mode, change forward effort), Left/Right
     turn in drive mode, ``c`` take control, ``r`` release, ``d`` drive mode on/off,
-    space stop, ``w`` send a waypoint triangle, ``e`` emergency stop (at once; on a
+    space stop, ``w`` send a waypoint triangle, ``h`` ask the holder for a hand-off, ``a`` /
+    ``n`` grant / refuse the oldest hand-off request, ``e`` emergency stop (at once; on a
     vehicle already in emergency, ``e`` then ``y`` clears it, any other key keeps it),
     ``q`` quit.
     """
@@ -437,6 +481,20 @@ class Operator:
             self.message = f"releasing {vid}"
             return [("ControlRequest", control_request(vid, self.operator_id, self.authority,
                                                        release=True))]
+        if key == "h":
+            self.message = f"asking the holder of {vid} to hand it over"
+            return [("HandoffRequest", {"vehicle_id": vid, "operator_id": self.operator_id,
+                                        "authority": self.authority,
+                                        "explanation": f"monitor of {self.operator_id}"})]
+        if key in ("a", "n"):
+            open_ = [h for h in view.vehicles[vid].handoffs if h[3] in ("PENDING", "DEFERRED")]
+            if not open_:
+                self.message = f"{vid}: no hand-off request to answer"
+                return []
+            response = "GRANTED" if key == "a" else "DENIED"
+            self.message = f"{vid}: hand-off #{open_[0][0]} to {open_[0][1]} {response.lower()}"
+            return [("HandoffResponse", {"vehicle_id": vid, "operator_id": self.operator_id,
+                                         "request_id": open_[0][0], "response": response})]
         if key == "d":
             self.driving = not self.driving
             self.linear = self.rotational = 0.0

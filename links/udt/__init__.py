@@ -17,8 +17,11 @@ from __future__ import annotations
 from typing import ClassVar
 
 from edge_vis.routing.bulk import BulkChannel
+from links.udt.fetch_queue import FetchQueue, Wanted
+from links.udt.image_server import ImageServer
 from links.udt.image_service import ImageService, manifest_for_file, send_image
 from links.udt.keys import load_keys
+from links.udt.lane_plan import LanePlan
 from links.udt.protocol import AtrMetadata, Backoff, Manifest, Position, Reason
 from links.udt.spool import Spool, SpoolRefusal
 from links.udt.transfer import BulkReceiver, BulkSender, Forwarder, TransferResult, parse_address
@@ -41,6 +44,10 @@ class UdtBulkChannel(BulkChannel):
     parse_address = staticmethod(parse_address)
     load_keys = staticmethod(load_keys)
     ImageService = ImageService
+    ImageServer = ImageServer
+    FetchQueue = FetchQueue
+    Wanted = Wanted
+    LanePlan = LanePlan
     BulkSender = BulkSender
     BulkReceiver = BulkReceiver
     Forwarder = Forwarder

@@ -24,6 +24,12 @@ relative to the segment (:meth:`Manifest.span`) and its RECEIPT only says "store
 sender then sends the plain manifest, which the receiver answers with ACCEPT(size), and
 the RECEIPT of that one carries the SHA-256 verdict on the whole file.
 
+Pull. The same exchange runs with the roles of the connection turned round when the
+receiver fetches: it connects to a vehicle's image server and sends FETCH (JSON: file
+name, optional segment); the server answers with the MANIFEST of that file and goes on as
+the sender above, or with REFUSE (NOT_FOUND) when it has no such file. One connection may
+carry any number of fetches, one after the other.
+
 Either side may send ERROR before closing when the other broke a rule (garbage, a frame
 out of place, data past the size).
 
@@ -77,6 +83,9 @@ MAX_FILE_SIZE = 1 << 40
 DATA_CHUNK = 1 << 20
 """Largest DATA payload, and the size senders use."""
 MAX_LANES = 16
+#: most segments a file is cut into; lanes take them one after another, so a lane that
+#: runs faster takes more of them and no lane is left holding a long tail
+MAX_SEGMENTS = 128
 SEGMENT_ALIGN = 64 * 1024
 
 
@@ -91,6 +100,7 @@ class FrameType(IntEnum):
     ERROR = 6
     CHALLENGE = 7
     AUTH = 8
+    FETCH = 9
 
 
 MAX_PAYLOAD: dict[FrameType, int] = {
@@ -102,6 +112,7 @@ MAX_PAYLOAD: dict[FrameType, int] = {
     FrameType.ERROR: 4 * 1024,
     FrameType.CHALLENGE: 32,
     FrameType.AUTH: 32,
+    FrameType.FETCH: 4 * 1024,
 }
 MIN_PAYLOAD: dict[FrameType, int] = {
     FrameType.MANIFEST: 2,
@@ -112,6 +123,7 @@ MIN_PAYLOAD: dict[FrameType, int] = {
     FrameType.ERROR: 2,
     FrameType.CHALLENGE: 32,
     FrameType.AUTH: 32,
+    FrameType.FETCH: 2,
 }
 #: domain separation of the authentication tag
 AUTH_LABEL = b"edge-vis bulk manifest auth v1\x00"
@@ -134,6 +146,7 @@ class Reason(IntEnum):
     TIMEOUT = 10
     SHUTDOWN = 11
     UNAUTHENTICATED = 12
+    NOT_FOUND = 13
     UNKNOWN = 0xFFFF
 
     @classmethod
@@ -318,8 +331,9 @@ def _segment(value: object) -> tuple[int, int] | None:
         return None
     if (not isinstance(value, list) or len(value) != 2
             or not all(isinstance(v, int) and not isinstance(v, bool) for v in value)
-            or not 1 <= value[1] <= MAX_LANES or not 0 <= value[0] < value[1]):
-        raise ManifestError(f"manifest.segment must be [index, count] with count 1..{MAX_LANES}")
+            or not 1 <= value[1] <= MAX_SEGMENTS or not 0 <= value[0] < value[1]):
+        raise ManifestError(
+            f"manifest.segment must be [index, count] with count 1..{MAX_SEGMENTS}")
     return value[0], value[1]
 
 
@@ -370,6 +384,33 @@ def transfer_id_for(vehicle_id: str, name: str, sha256: str) -> str:
     """A transfer id stable across sender restarts, so a re-run resumes instead of restarting."""
     key = f"{vehicle_id}\x00{name}\x00{sha256}".encode()
     return hashlib.sha256(key).hexdigest()[:32]
+
+
+def fetch_payload(name: str, segment: tuple[int, int] | None = None,
+                  rate_bps: int | None = None) -> bytes:
+    """The FETCH payload asking for ``name`` (or one lane's ``segment`` of it), to be sent
+    at most at ``rate_bps`` (the fetcher's share of the link budget)."""
+    data: dict[str, Any] = {"name": check_file_name(name)}
+    if segment is not None:
+        data["segment"] = list(_segment(list(segment)) or ())
+    if rate_bps:
+        data["rate"] = int(rate_bps)
+    return json.dumps(data, separators=(",", ":")).encode("utf-8")
+
+
+def parse_fetch(payload: bytes) -> tuple[str, tuple[int, int] | None, int | None]:
+    """``(name, segment, rate_bps)`` of a FETCH payload; a malformed one is a BAD_FRAME."""
+    try:
+        data = json.loads(payload.decode("utf-8"))
+        if not isinstance(data, dict) or set(data) - {"name", "segment", "rate"}:
+            raise ValueError("expected an object with name, optional segment and rate")
+        rate = data.get("rate")
+        if rate is not None and (isinstance(rate, bool) or not isinstance(rate, int)
+                                 or rate <= 0):
+            raise ValueError("rate must be a positive integer (bit/s)")
+        return check_file_name(data.get("name")), _segment(data.get("segment")), rate
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise _Garbage(f"bad FETCH: {exc}") from exc
 
 
 # --------------------------------------------------------------------------- events
@@ -449,9 +490,27 @@ class ProtocolErrorDetected:
     reason: str
 
 
+@dataclass(frozen=True, slots=True)
+class FetchRequested:
+    """Image server: the peer asks for file ``name`` (one lane's ``segment`` of it, or all);
+    answer with ``send_manifest`` (the normal sending flow follows) or ``refuse_fetch``."""
+
+    name: str
+    segment: tuple[int, int] | None
+    rate_bps: int | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class FetchRefused:
+    """Fetcher: the image server will not serve the file asked for."""
+
+    code: Reason
+    reason: str
+
+
 Event = (
     ManifestReceived | ManifestRejected | DataReceived | DataComplete | Accepted | Refused
-    | ReceiptReceived | PeerErrored | ProtocolErrorDetected
+    | ReceiptReceived | PeerErrored | ProtocolErrorDetected | FetchRequested | FetchRefused
 )
 
 
@@ -660,9 +719,23 @@ class ReceiverConnection(_Base):
     nonce: Callable[[], bytes] = field(default=lambda: secrets.token_bytes(32))
     _challenge: bytes = b""
     _manifest_bytes: bytes = b""
+    _fetching: bool = False
+
+    def request(self, name: str, segment: tuple[int, int] | None = None,
+                rate_bps: int | None = None) -> None:
+        """Ask an image server for ``name`` (pull); its MANIFEST or a ``FetchRefused`` follows."""
+        if self.state is not State.AWAIT_MANIFEST:
+            raise BulkProtocolError(f"request() in state {self.state.value}")
+        self._out.append(encode_frame(FrameType.FETCH, fetch_payload(name, segment, rate_bps)))
+        self._fetching = True
 
     def _frame(self, ftype: FrameType, payload: bytes) -> list[Event]:
+        if ftype is FrameType.REFUSE and self.state is State.AWAIT_MANIFEST and self._fetching:
+            (code,) = struct.unpack_from(">H", payload)
+            self._fetching = False
+            return [FetchRefused(Reason.of(code), _text(payload[2:]))]
         if ftype is FrameType.MANIFEST and self.state is State.AWAIT_MANIFEST:
+            self._fetching = False
             try:
                 manifest = Manifest.from_json(payload)
             except ManifestError as exc:
@@ -793,8 +866,16 @@ class SenderConnection(_Base):
     def remaining(self) -> int:
         return 0 if self.manifest is None else self.manifest.length - self.offset
 
+    def refuse_fetch(self, code: Reason, reason: str) -> None:
+        """Image server: decline a ``FetchRequested``; the connection waits for the next."""
+        if self.state is not State.IDLE:
+            raise BulkProtocolError(f"refuse_fetch() in state {self.state.value}")
+        self._out.append(encode_frame(FrameType.REFUSE, _coded(code, reason)))
+
     def _frame(self, ftype: FrameType, payload: bytes) -> list[Event]:
         assert ftype is not FrameType.ERROR
+        if ftype is FrameType.FETCH and self.state is State.IDLE:
+            return [FetchRequested(*parse_fetch(payload))]
         if self.manifest is None:
             raise self._unexpected(ftype)
         tid = self.manifest.transfer_id

@@ -19,11 +19,13 @@ import logging
 import threading
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from edge_vis.errors import LinkError
+from links.udt.lane_plan import segments_for
+from links.udt.lane_run import LaneRun
 from links.udt.protocol import (
     DATA_CHUNK,
     MAX_LANES,
@@ -31,6 +33,7 @@ from links.udt.protocol import (
     Backoff,
     DataComplete,
     DataReceived,
+    FetchRefused,
     Manifest,
     ManifestReceived,
     ManifestRejected,
@@ -49,8 +52,8 @@ log = logging.getLogger(__name__)
 
 POLL_MS = 250
 """Receive timeout on every socket, so threads notice ``stop()`` within this time."""
-MIN_LANE_BYTES = 1 << 20
-"""Smallest segment worth its own connection: a lane pays a UDT handshake and slow start."""
+PACED_CHUNK = 64 * 1024
+"""DATA payload size while a shared budget paces the lanes (finer steps, smaller bursts)."""
 SNDBUF_MIN = 256 * 1024
 SNDBUF_MAX = 12 * 1024 * 1024
 
@@ -212,10 +215,17 @@ class BulkSender:
         stall_timeout: float = 10.0,
         lanes: int = 1,
         keys: Mapping[str, bytes] | None = None,
+        pace: Callable[[int], float] | None = None,
     ) -> None:
-        if not 1 <= lanes <= MAX_LANES:
-            raise ValueError(f"lanes must be 1..{MAX_LANES}")
+        if not 0 <= lanes <= MAX_LANES:
+            raise ValueError(f"lanes must be 0 (adapt) or 1..{MAX_LANES}")
         self.lanes = lanes
+        #: seconds to wait before handing n more bytes to UDT (a budget shared by lanes)
+        self.pace = pace
+        #: the lane controller's decisions in the last adaptive transfer (time, lanes, B/s)
+        self.lane_history: list[tuple[float, int, float]] = []
+        #: told how long each manifest waited for its answer (the lane controller's signal)
+        self.on_round_trip: Callable[[float], None] | None = None
         self.keys = keys  # vehicle id -> pre-shared key, to answer a receiver's challenge
         self.address = address
         self.max_rate_bps = max_rate_bps
@@ -237,55 +247,50 @@ class BulkSender:
     def send_file(self, path: str | Path, manifest: Manifest) -> TransferResult:
         """Send ``path`` as described by ``manifest``; return once the receipt says so.
 
-        With ``lanes`` > 1 and a file of at least ``MIN_LANE_BYTES`` per lane, the file
-        goes as that many segments on parallel connections (each with its share of the
-        rate budget), then the whole-file manifest asks for the verdict.
+        With ``lanes`` other than 1 and a file of several segments (:func:`segments_for`),
+        the segments go on parallel connections, each lane taking the next segment when
+        it is done with one; ``lanes`` = 0 lets a :class:`LaneController` pick and adapt
+        the number of lanes from the goodput it measures. Then the whole-file manifest
+        asks for the verdict.
         """
-        lanes = min(self.lanes, max(1, manifest.size // MIN_LANE_BYTES))
-        if lanes > 1 and manifest.segment is None:
-            return self._send_lanes(Path(path), manifest, lanes)
+        if self.lanes != 1 and manifest.segment is None:
+            count = segments_for(manifest.size)
+            if count > 1:
+                return self._send_lanes(Path(path), manifest, count)
         return self._send_one(Path(path), manifest)
 
-    def _send_lanes(self, path: Path, manifest: Manifest, lanes: int) -> TransferResult:
-        done = [0] * lanes
-        results: list[TransferResult | None] = [None] * lanes
-        lock = threading.Lock()
-
-        def lane_progress(index: int) -> ProgressFn:
-            def report(value: int, _total: int) -> None:
-                with lock:
-                    done[index] = value
-                    total = sum(done)
-                if self.progress:
-                    self.progress(total, manifest.size)
-            return report
-
-        def run(index: int) -> None:
-            with BulkSender(
-                self.address,
-                max_rate_bps=None if not self.max_rate_bps else self.max_rate_bps // lanes,
+    def _send_lanes(self, path: Path, manifest: Manifest, count: int) -> TransferResult:
+        def make_sender(progress: ProgressFn, pace: Callable[[int], float] | None,
+                        stop: threading.Event) -> BulkSender:
+            return BulkSender(
+                self.address, max_rate_bps=self.max_rate_bps,
                 backoff=Backoff(self.backoff.initial, self.backoff.factor, self.backoff.maximum,
                                 self.backoff.jitter),
                 connect_timeout=self.connect_timeout, idle_timeout=self.idle_timeout,
                 give_up_after=self.give_up_after, retry_refusals=self.retry_refusals,
-                stop=self.stop, progress=lane_progress(index), stall_timeout=self.stall_timeout,
-            ) as lane:
-                results[index] = lane.send_file(path, replace(manifest, segment=(index, lanes)))
+                stop=stop, progress=progress, stall_timeout=self.stall_timeout,
+                keys=self.keys, pace=pace)
 
-        threads = [threading.Thread(target=run, args=(i,), name=f"udt-lane-{i}", daemon=True)
-                   for i in range(lanes)]
-        for t in threads:
-            t.start()
-        for t in threads:
-            t.join()
-        attempts = sum(r.attempts for r in results if r is not None)
-        offsets = tuple(o for r in results if r is not None for o in r.resumed_from)
-        for r in results:
-            if r is None or not r.ok:
-                reason = "lane did not finish" if r is None else r.reason
-                return TransferResult(False, reason, None if r is None else r.code, attempts,
-                                      offsets)
-        final = self._send_one(path, manifest)
+        run = LaneRun(make_sender, self.lanes, self.max_rate_bps, self.stop, self.progress)
+        failed, idle = run.send(path, manifest, count)
+        if run.control is not None:
+            self.lane_history = list(run.control.history)
+        # connections opened: one per lane and one per reconnection
+        attempts = run.started + sum(r.attempts - 1 for r in run.results)
+        offsets = tuple(o for r in run.results for o in r.resumed_from if o)
+        try:
+            if failed is not None:
+                return TransferResult(False, failed.reason, failed.code, attempts, offsets)
+            # The whole-file manifest on a lane's open connection: no new handshake.
+            closer = idle.pop() if idle else self
+            final = closer._send_one(path, manifest)
+        finally:
+            for sender in idle:
+                sender.close()
+        if closer is not self:
+            closer.close()
+        if final.ok and self.progress:
+            self.progress(manifest.size, manifest.size)
         return TransferResult(final.ok, final.reason, final.code, attempts + final.attempts,
                               offsets + final.resumed_from)
 
@@ -368,9 +373,7 @@ class BulkSender:
         keep = False
         try:
             try:
-                conn.send_manifest(manifest, time.monotonic())
-                _send_all(sock, conn.data_to_send())
-                answer = self._next_event(sock, conn)
+                answer = self._announce(sock, conn, manifest)
             except ConnectionLost:
                 if not reused:
                     raise
@@ -378,40 +381,64 @@ class BulkSender:
                 _close(sock)
                 sock = _connect(self.address, self.connect_timeout, self.max_rate_bps)
                 conn = SenderConnection(idle_timeout=self.idle_timeout, keys=self.keys)
-                conn.send_manifest(manifest, time.monotonic())
-                _send_all(sock, conn.data_to_send())
-                answer = self._next_event(sock, conn)
-            watchdog = _Watchdog(sock, self.stall_timeout)
-            if isinstance(answer, Refused):
-                keep = True
-                if answer.code in self.retry_refusals:
-                    log.info("%s refused %s for now: %s", self.target, manifest.name, answer.reason)
-                    return None
-                return TransferResult(False, answer.reason, answer.code)
-            if not isinstance(answer, Accepted):
-                return self._ended(answer)
-            offsets.append(answer.offset)
-            if answer.offset:
-                log.info("resuming %s at byte %d of %d", manifest.name, answer.offset,
-                         manifest.size)
-            try:
-                self._stream(sock, conn, path, answer.offset, watchdog)
-            except ConnectionLost:
-                # The receiver may have said why before closing.
-                return self._reason_after_drop(sock, conn)
-            receipt = self._next_event(sock, conn, watchdog=watchdog)
-            if isinstance(receipt, ReceiptReceived):
-                keep = True
-                if self.progress and receipt.ok:
-                    self.progress(manifest.length, manifest.length)
-                return TransferResult(receipt.ok, receipt.reason or "SHA-256 verified",
-                                      None if receipt.ok else Reason.HASH_MISMATCH)
-            return self._ended(receipt)
+                answer = self._announce(sock, conn, manifest)
+            result, keep = self._exchange(sock, conn, path, manifest, answer, offsets)
+            return result
         finally:
             if keep and conn.state is State.IDLE and not self.stop.is_set():
                 self._idle = (sock, conn)
             else:
                 _close(sock)
+
+    def _announce(self, sock: Any, conn: SenderConnection, manifest: Manifest) -> Any:
+        sent = time.monotonic()
+        conn.send_manifest(manifest, sent)
+        _send_all(sock, conn.data_to_send())
+        answer = self._next_event(sock, conn)
+        if self.on_round_trip is not None and isinstance(answer, Accepted):
+            self.on_round_trip(time.monotonic() - sent)
+        return answer
+
+    def serve(self, sock: Any, conn: SenderConnection, path: Path, manifest: Manifest
+              ) -> TransferResult | int | None:
+        """Send ``path`` on a connection the peer opened (an image server answering a FETCH).
+
+        One attempt: a result ends the transfer, an int is the bytes reached before a drop,
+        None a refusal to retry. The connection stays open for the peer's next request.
+        """
+        self._pending_events.clear()
+        answer = self._announce(sock, conn, manifest)
+        result, _keep = self._exchange(sock, conn, path, manifest, answer, [])
+        return result
+
+    def _exchange(self, sock: Any, conn: SenderConnection, path: Path, manifest: Manifest,
+                  answer: Any, offsets: list[int]) -> tuple[TransferResult | int | None, bool]:
+        """The rest of one attempt after the manifest's answer; True: the connection is
+        idle and reusable."""
+        watchdog = _Watchdog(sock, self.stall_timeout)
+        if isinstance(answer, Refused):
+            if answer.code in self.retry_refusals:
+                log.info("%s refused %s for now: %s", self.target, manifest.name, answer.reason)
+                return None, True
+            return TransferResult(False, answer.reason, answer.code), True
+        if not isinstance(answer, Accepted):
+            return self._ended(answer), False
+        offsets.append(answer.offset)
+        if answer.offset:
+            log.info("resuming %s at byte %d of %d", manifest.name, answer.offset,
+                     manifest.size)
+        try:
+            self._stream(sock, conn, path, answer.offset, watchdog)
+        except ConnectionLost:
+            # The receiver may have said why before closing.
+            return self._reason_after_drop(sock, conn), False
+        receipt = self._next_event(sock, conn, watchdog=watchdog)
+        if isinstance(receipt, ReceiptReceived):
+            if self.progress and receipt.ok:
+                self.progress(manifest.length, manifest.length)
+            return TransferResult(receipt.ok, receipt.reason or "SHA-256 verified",
+                                  None if receipt.ok else Reason.HASH_MISMATCH), True
+        return self._ended(receipt), False
 
     def _stream(self, sock: Any, conn: SenderConnection, path: Path, offset: int,
                 watchdog: _Watchdog) -> None:
@@ -423,9 +450,11 @@ class BulkSender:
             while conn.state is State.SENDING:
                 if self.stop.is_set():
                     raise ConnectionLost("stopped")
-                chunk = fh.read(min(DATA_CHUNK, conn.remaining))
+                chunk = fh.read(min(PACED_CHUNK if self.pace else DATA_CHUNK, conn.remaining))
                 if not chunk:
                     raise LinkError(f"{path} is shorter than its manifest says ({total} bytes)")
+                if self.pace is not None and self.stop.wait(self.pace(len(chunk))):
+                    raise ConnectionLost("stopped")
                 conn.send_data(chunk, time.monotonic())
                 _send_all(sock, conn.data_to_send(), watchdog)
                 if self.progress:
@@ -496,6 +525,38 @@ class BulkSender:
 
 # --------------------------------------------------------------------------- receiver
 
+
+@dataclass(frozen=True, slots=True)
+class FetchRequest:
+    """What to pull from an image server, and what the announcement said it must be."""
+
+    name: str
+    sha256: str
+    size: int | None = None
+    segment: tuple[int, int] | None = None
+    rate_bps: int | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class FetchOutcome:
+    """How one fetch ended: ``verified``, ``stored`` (a lane segment), ``mismatch`` (refused:
+    not what was announced, or data failing the hash), ``refused``, ``not_found``, ``lost``."""
+
+    state: str
+    reason: str = ""
+
+
+def _mismatch(expect: FetchRequest | None, m: Manifest) -> str:
+    """Why the server's manifest is not the announced image ("" when it is)."""
+    if expect is None:
+        return ""
+    if m.sha256 != expect.sha256:
+        return (f"SHA-256 mismatch: announced {expect.sha256[:16]}..., the image server "
+                f"offers {m.sha256[:16]}... for {m.name}")
+    if expect.size is not None and m.size != expect.size:
+        return f"size mismatch: announced {expect.size} bytes, the image server offers {m.size}"
+    return ""
+
 VerifiedFn = Callable[[Manifest, Path], None]
 StatusFn = Callable[[dict[str, Any]], None]
 
@@ -516,7 +577,7 @@ class BulkReceiver:
         on_verified: VerifiedFn | None = None,
         on_status: StatusFn | None = None,
         idle_timeout: float = 30.0,
-        max_connections: int = 16,
+        max_connections: int = 64,
         keys: Mapping[str, bytes] | None = None,
     ) -> None:
         self.spool = spool
@@ -534,6 +595,7 @@ class BulkReceiver:
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._local = threading.local()
+        self._cut: set[int] = set()  # ids of sockets their serving thread must close
         self.counters = {"connections": 0, "protocol_errors": 0, "refused": 0, "verified": 0,
                          "unauthenticated": 0}
 
@@ -568,11 +630,14 @@ class BulkReceiver:
         self.stop()
 
     def drop_connections(self) -> int:
-        """Close every open connection at once (partial data is kept); return how many."""
+        """Cut every open connection (partial data is kept); return how many.
+
+        Each connection's own thread closes its socket within one receive timeout: closing
+        a UDT socket under a thread blocked in ``recv`` breaks udt4py's call.
+        """
         with self._lock:
-            conns = list(self._conns.values())
-        for sock in conns:
-            _close(sock)
+            conns = list(self._conns)
+            self._cut.update(conns)
         return len(conns)
 
     def stop(self) -> None:
@@ -624,21 +689,47 @@ class BulkReceiver:
                 "bytes_received": offset,
                 "size": manifest.size,
                 "detail": detail,
+                "sha256": manifest.sha256,
+                "manifest": manifest,
             })
         except Exception:  # a status consumer must not break a transfer
             log.exception("status callback failed")
 
     def _serve(self, sock: Any, peer: str) -> None:
+        try:
+            self._run_connection(sock, peer, None)
+        finally:
+            _close(sock)
+
+    def fetch(self, sock: Any, peer: str, request: FetchRequest) -> FetchOutcome:
+        """Pull one file (or lane segment) on ``sock``, a connection to an image server.
+
+        The server's manifest must match the announced SHA-256 and size, or it is refused
+        with that reason. The socket stays open for the next request unless the outcome
+        says the connection was lost; the caller closes it.
+        """
+        return self._run_connection(sock, peer, request)
+
+    def _run_connection(self, sock: Any, peer: str, request: FetchRequest | None
+                        ) -> FetchOutcome:
         udt = udt4py()
         with self._lock:
             self._conns[id(sock)] = sock
         self._local.sock = sock
+        self._local.outcome = None
+        self._local.expect = request
         sock.UDT_RCVTIMEO = POLL_MS
         conn = ReceiverConnection(idle_timeout=self.idle_timeout, keys=self.keys)
         buf = bytearray(DATA_CHUNK)
         current: Manifest | None = None
+        lost = FetchOutcome("lost", "connection closed")
         try:
+            if request is not None:
+                conn.request(request.name, request.segment, request.rate_bps)
+                _send_all(sock, conn.data_to_send())
             while not self._stop.is_set():
+                if id(sock) in self._cut:
+                    return FetchOutcome("lost", "connection cut")
                 try:
                     n = sock.recv(buf)
                 except udt.UDTException as exc:
@@ -646,7 +737,7 @@ class BulkReceiver:
                         idle = conn.state is State.AWAIT_MANIFEST
                         log.log(logging.DEBUG if idle else logging.INFO,
                                 "connection from %s ended: %s", peer, exc)
-                        return
+                        return FetchOutcome("lost", str(exc))
                     n = 0
                 now = time.monotonic()
                 events = conn.receive_data(bytes(buf[:n]), now) if n else conn.handle_timer(now)
@@ -657,11 +748,15 @@ class BulkReceiver:
                     _send_all(sock, out)
                 if conn.state is State.CLOSED:
                     time.sleep(0.05)  # let UDT deliver the ERROR frame before closing
-                    return
+                    return self._local.outcome or FetchOutcome("lost", "protocol error")
+                if request is not None and self._local.outcome is not None:
+                    return self._local.outcome  # type: ignore[no-any-return]
             conn.close_with_error(Reason.SHUTDOWN, "receiver shutting down")
             _send_all(sock, conn.data_to_send())
+            return FetchOutcome("lost", "stopped")
         except ConnectionLost as exc:
             log.info("connection from %s lost: %s", peer, exc)
+            return lost
         finally:
             if current is not None:
                 self._release(current, sock)
@@ -670,7 +765,10 @@ class BulkReceiver:
                     self._status(current, "interrupted", entry.held)
             with self._lock:
                 self._conns.pop(id(sock), None)
-            _close(sock)
+                self._cut.discard(id(sock))
+
+    def _outcome(self, state: str, reason: str = "") -> None:
+        self._local.outcome = FetchOutcome(state, reason)
 
     @staticmethod
     def _claim_key(m: Manifest) -> tuple[str, int | None]:
@@ -691,7 +789,8 @@ class BulkReceiver:
         if old is None or old is self._local.sock:
             return
         log.info("transfer %s: new connection from %s replaces a stale one", m.transfer_id, peer)
-        _close(old)
+        with self._lock:
+            self._cut.add(id(old))
         deadline = time.monotonic() + 2.0
         while time.monotonic() < deadline:
             with self._lock:
@@ -707,6 +806,14 @@ class BulkReceiver:
                 current: Manifest | None) -> Manifest | None:
         if isinstance(event, ManifestReceived):
             m = event.manifest
+            wrong = _mismatch(self._local.expect, m)
+            if wrong:
+                self.counters["refused"] += 1
+                log.warning("refused %s from %s: %s", m.name, peer, wrong)
+                conn.refuse(Reason.HASH_MISMATCH, wrong)
+                self._status(m, "refused", 0, wrong)
+                self._outcome("mismatch", wrong)
+                return None
             self._take_over(m, peer)
             try:
                 offset = self.spool.begin(m)
@@ -715,6 +822,7 @@ class BulkReceiver:
                 log.warning("refused %s from %s (%s): %s", m.name, peer, exc.code.name, exc.reason)
                 conn.refuse(exc.code, exc.reason)
                 self._status(m, "refused", 0, exc.reason)
+                self._outcome("refused", exc.reason)
                 return None
             with self._lock:
                 self._owners[self._claim_key(m)] = self._local.sock
@@ -740,6 +848,7 @@ class BulkReceiver:
                 self._release(m, sock)
                 conn.send_receipt(True, "", f"segment {m.segment[0] + 1}/{m.segment[1]} stored")
                 self._status(m, "active", self._held(m))
+                self._outcome("stored")
                 return None
             try:
                 path = self.spool.complete(m)
@@ -748,12 +857,14 @@ class BulkReceiver:
                 self._release(m, sock)
                 conn.send_receipt(False, "", exc.reason)
                 self._status(m, "failed", m.size, exc.reason)
+                self._outcome("mismatch", exc.reason)
                 return None
             self._release(m, sock)
             conn.send_receipt(True, m.sha256)
             self.counters["verified"] += 1
             log.info("verified %s from %s (sha256 %s...)", m.name, m.vehicle_id, m.sha256[:12])
             self._status(m, "verified", m.size)
+            self._outcome("verified")
             if self.on_verified is not None:
                 try:
                     self.on_verified(m, path)
@@ -769,6 +880,11 @@ class BulkReceiver:
         if isinstance(event, ProtocolErrorDetected):
             self.counters["protocol_errors"] += 1
             log.warning("closing connection from %s (%s): %s", peer, event.code.name, event.reason)
+            return current
+        if isinstance(event, FetchRefused):
+            log.info("%s will not serve %s: %s", peer, self._local.expect.name, event.reason)
+            self._outcome("not_found" if event.code is Reason.NOT_FOUND else "refused",
+                          event.reason)
             return current
         if isinstance(event, PeerErrored):
             log.info("%s closed with %s: %s", peer, event.code.name, event.reason)
@@ -793,7 +909,7 @@ class Forwarder:
         max_rate_bps: int | None = None,
         backoff: Backoff | None = None,
         connect_timeout: float = 1.0,
-        lanes: int = 1,
+        lanes: int = 0,
         keys: Mapping[str, bytes] | None = None,
     ) -> None:
         self.spool = spool

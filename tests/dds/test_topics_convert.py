@@ -84,6 +84,9 @@ def test_kinds_decide_direction() -> None:
         "ManagementCommand",
         "PlanQuery", "PathSegmentPlan", "MissionSpoolCommand",
         "SensorCommand",
+        # IOP and UGV
+        "HandoffRequest", "HandoffResponse", "CostMapRequest", "NoGoZoneCommand",
+        "DigitalResourceCommand", "CbrnCommand", "SkidSteerCommand", "AckermannCommand",
     }
     assert registry.get("EmergencyCommand").kind is TopicKind.EMERGENCY
     assert registry.get("VehicleClock").kind is TopicKind.STATE

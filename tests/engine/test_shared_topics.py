@@ -56,3 +56,31 @@ def test_installed_image_translators_both_declare_image_products() -> None:
         TranslatorSelection(("environment", "uuv")))
     writers = {tr.name for tr in manager.publishers["ImageProduct"]}
     assert writers == {"environment", "uuv"}
+
+
+def test_a_state_topic_filled_by_two_translators_is_merged(catalogue: Any) -> None:
+    """HealthStatus: the level and faults from the IOP health monitor (iop translator),
+    the battery from the UGV power plant (ugv translator); neither clears the other."""
+    from translators.core import CoreTranslator
+    from translators.iop import IopTranslator
+    from translators.ugv import UgvTranslator
+
+    from .conftest import Harness, published
+    from .test_engine import ROBOT, discover
+
+    h = Harness(catalogue, translators=[CoreTranslator(), IopTranslator(), UgvTranslator()])
+    discover(h)
+    h.deliver(ROBOT, "ReportUGVSummary", {"ugv_severity_rec": {"severity": 2},
+                                          "severity_list": []})
+    h.deliver(ROBOT, "ReportPowerPlantStatus", {"power_plant_status_list": [{
+        "power_plant_desc_rec": {"power_plant_id": 1, "description": "main"},
+        "power_plant_status_var": {"battery_status": [{"percent_charge_remaining": 64.0,
+                                                       "voltage": 25.5}]}}]})
+    health = published(h.log, "HealthStatus")[-1]
+    assert health["level"] == "HEALTH_WARNING"
+    assert health["battery_percent"] == pytest.approx(64.0, abs=0.01)
+    h.deliver(ROBOT, "ReportUGVSummary", {"ugv_severity_rec": {"severity": 0},
+                                          "severity_list": []})
+    health = published(h.log, "HealthStatus")[-1]
+    assert health["level"] == "HEALTH_OK"
+    assert health["supply_voltage"] == pytest.approx(25.5, abs=0.02)  # kept

@@ -144,8 +144,8 @@ def test_paths_and_names() -> None:
 
 # -- removing any one translator leaves the others working -------------------------------
 
-ALL = ("core", "emergency", "environment", "generic", "hmi", "iop", "management", "manipulator",
-       "mission_spooler", "mobility", "ugv", "uuv")
+ALL = ("cbrn", "core", "costmap", "emergency", "environment", "generic", "hmi", "iop",
+       "management", "manipulator", "mission_spooler", "mobility", "ugv", "uuv")
 
 
 def _representative(name: str) -> tuple[str, dict[str, Any], str]:

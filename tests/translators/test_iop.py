@@ -24,6 +24,13 @@ def test_every_declared_report_translates(rule) -> None:  # type: ignore[no-unty
 @pytest.mark.parametrize(("rule", "values", "expected"), [
     (COMMANDS[0], {"platform_state": "operational", "platform_mode": ""}, {"platform_state": 1}),
     (COMMANDS[1], {"platform_mode": "Maintenance", "platform_state": ""}, {"platform_mode": 2}),
+    (COMMANDS[2], {"update_health": True, "platform_state": "", "platform_mode": ""}, {}),
+    (COMMANDS[3], {"url": "rtsp://10.0.0.9/cam", "server_type": "rtsp", "request_id": 4,
+                   "jaus_address": "150.1.3", "resource_id": 2},
+     {"request_id_rec": {"request_id": 4}, "digital_resource_endpoint_rec": {
+         "server_type": 0, "server_url": "rtsp://10.0.0.9/cam", "resource_id": 2,
+         "jaus_id": {"subsystem_id": 150, "node_id": 1, "component_id": 3}}}),
+    (COMMANDS[4], {"endpoint_id": 17, "request_id": 5}, {"id": 17, "request_id": 5}),
 ], ids=[c.message for c in COMMANDS])
 def test_every_declared_command(rule: CommandRule, values: dict[str, Any],
                                 expected: dict[str, Any]) -> None:
@@ -124,3 +131,32 @@ def test_measurement() -> None:
     assert reading["values"] == pytest.approx([412.5, -3.0], abs=1e-3)
     assert sample["latitude"] == pytest.approx(48.1, abs=1e-6)
     assert sample["altitude"] != sample["altitude"]  # not reported: NaN
+
+
+@pytest.mark.parametrize("sample", [
+    {"action": "REGISTER", "url": ""},
+    {"action": "REGISTER", "url": "ftp://x", "server_type": "GOPHER"},
+    {"action": "REGISTER", "url": "ftp://x", "jaus_address": "150.1"},
+])
+def test_bad_resource_registrations_are_refused(sample: dict[str, Any]) -> None:
+    assert TR().on_sample("DigitalResourceCommand", {"vehicle_id": "veh1",
+                                                     "operator_id": "op1", **sample}, CTX) == []
+
+
+def test_handoff_status_from_the_vehicle_view() -> None:
+    from dataclasses import replace
+
+    from edge_vis.kit import HandoffView
+
+    view = replace(CTX.vehicle, controller="op1", handoff_timeout=30.0, handoffs=(
+        HandoffView(3, "op2", 20, "survey", "PENDING"),
+        HandoffView(4, "jaus:300.1.5", 9, "", "DENIED", "refused by op1", "150.1.1")))
+    (status,) = TR().on_vehicle("handoff", replace(CTX, vehicle=view))
+    sample = status.sample
+    assert (sample["holder"], sample["handoff_timeout"]) == ("op1", 30.0)
+    assert [(r["request_id"], r["requester"], r["state"], r["via"])
+            for r in sample["requests"]] == [(3, "op2", "PENDING", ""),
+                                              (4, "jaus:300.1.5", "DENIED", "150.1.1")]
+    converter_for(TYPES["HandoffStatus"]).to_struct(sample, "HandoffStatus")
+    # control changes without requests publish nothing
+    assert TR().on_vehicle("control", CTX) == []

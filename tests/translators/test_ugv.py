@@ -23,6 +23,14 @@ def test_every_declared_report_translates(rule) -> None:  # type: ignore[no-unty
 
 
 COMMAND_CASES: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
+    "SetSkidSteerEffort": ({"left_effort": 140.0, "right_effort": -35.5},
+                           {"left_side_propulsive_effort": 100.0,
+                            "right_side_propulsive_effort": -35.5}),
+    "SetAckermannConfiguration": (
+        {"steering_angle": 2.0, "throttle_effort": 40.0, "brake_effort": -3.0,
+         "max_steering_rate": 0.5},
+        {"steering_angle": math.pi / 2, "throttle_effort": 40.0, "brake_effort": 0.0,
+         "max_steering_rate": 0.5}),
     "SetParkingBrake": ({"value": 130.0}, {"parking_brake": 100.0}),
     "SetIlluminationState": (
         {"state": "Headlights, brake_lights, variable_light1=7, variable_light2"},
@@ -104,8 +112,15 @@ def test_power_plants_one_sample_each() -> None:
         {"power_plant_desc_rec": {"power_plant_id": 2, "description": "generator"},
          "power_plant_status_var": {"diesel_engine_status": {"engine_hours": 1234}}},
     ]})
-    samples = [a.sample for a in TR().on_message("ReportPowerPlantStatus", fields, CTX)]
+    actions = TR().on_message("ReportPowerPlantStatus", fields, CTX)
+    samples = [a.sample for a in actions if a.topic == "PowerPlantStatus"]
     assert [s["plant_id"] for s in samples] == [1, 2]
+    # the battery also fills HealthStatus (merged with the health monitor's level)
+    (health,) = [a for a in actions if a.topic == "HealthStatus"]
+    assert health.merge == ("vehicle_id",)
+    assert health.sample["battery_percent"] == pytest.approx(81.5, abs=0.01)
+    assert health.sample["supply_voltage"] == pytest.approx(24.2, abs=0.02)
+    assert "level" not in health.sample
     battery, diesel = samples
     assert battery["kind"] == "battery" and battery["description"] == "main battery"
     assert battery["remaining_percent"] == pytest.approx(81.5, abs=0.01)
@@ -126,3 +141,53 @@ def test_not_translated_messages_are_listed_by_the_mappings_command() -> None:
     rows = [r for r in collect(only=["ugv"]) if r["direction"] == "none"]
     assert {r["message"] for r in rows} == {name for name, _ in NOT_TRANSLATED}
     assert all(name in CAT for name, _ in NOT_TRANSLATED)  # real UGV messages
+
+
+def test_drive_commands_are_motion_commands_with_safe_stops() -> None:
+    base = {"vehicle_id": "veh1", "operator_id": "op1"}
+    (skid,) = TR().on_sample("SkidSteerCommand", {**base, "left_effort": 30.0,
+                                                  "right_effort": 30.0}, CTX)
+    assert skid.stop == {"left_side_propulsive_effort": 0.0,
+                         "right_side_propulsive_effort": 0.0}
+    (ack,) = TR().on_sample("AckermannCommand", {**base, "steering_angle": 0.3,
+                                                 "throttle_effort": 60.0,
+                                                 "brake_effort": 0.0}, CTX)
+    assert "max_steering_rate" not in ack.fields  # absent: left out
+    assert ack.stop == {"steering_angle": pytest.approx(0.3), "throttle_effort": 0.0,
+                        "brake_effort": 100.0}
+
+
+def test_capabilities() -> None:
+    tr = TR()
+    (lights,) = tr.on_message("ReportIlluminationConfiguration", decoded(
+        "ReportIlluminationConfiguration", {"types": {"headlights": 1, "ir_light_source": 1}}),
+        CTX)
+    assert (lights.topic, lights.sample["device"], lights.sample["supported"]) == (
+        "DeviceCapabilities", "illumination", ["headlights", "ir_light_source"])
+    gears, case = tr.on_message("ReportTransmissionCapabilities", decoded(
+        "ReportTransmissionCapabilities", {"transmission_bf": {"park": 1, "drive": 1,
+                                                               "reverse": 1},
+                                           "transfer_case_bf": {"high_awd": 1}}), CTX)
+    assert gears.sample["supported"] == ["park", "reverse", "drive"]
+    assert (case.sample["device"], case.sample["supported"]) == ("transfer_case",
+                                                                 ["high_awd"])
+    (flipper,) = tr.on_message("ReportStabilizerCapabilities", decoded(
+        "ReportStabilizerCapabilities", {"stabilizer_capabilities": [{
+            "stabilizer_capabilities_rec": {"stabilizer_id": 2, "maximum_up_angle": 1.5,
+                                            "maximum_down_angle": -0.5},
+            "stabilizer_dimensions_list": [{"point_x": 0.4, "point_y": -0.2,
+                                            "point_z": 0.0}]}]}), CTX)
+    assert flipper.sample["device"] == "stabilizer_2"
+    assert [(x["name"], x["text"]) for x in flipper.sample["limits"]] == [
+        ("maximum_up_angle", "rad"), ("maximum_down_angle", "rad")]
+    assert flipper.sample["limits"][1]["number"] == pytest.approx(-0.5, abs=1e-4)
+    assert flipper.sample["points"][0]["x"] == pytest.approx(0.4, abs=1e-3)
+    (plant,) = tr.on_message("ReportPowerPlantCapabilities", decoded(
+        "ReportPowerPlantCapabilities", {"power_plant_capabilities_list": [{
+            "power_plant_desc_rec": {"power_plant_id": 4, "description": "genset"},
+            "power_plant_capabilities_var": {"diesel_engine_capabilities_rec": {
+                "fuel_capacity": 40.0}}}]}), CTX)
+    assert (plant.sample["device"], plant.sample["supported"]) == ("power_plant_4",
+                                                                   ["diesel_engine"])
+    assert plant.sample["limits"][0]["name"] == "fuel_capacity"
+    assert plant.sample["limits"][0]["text"] == "l"

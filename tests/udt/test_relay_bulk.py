@@ -86,3 +86,51 @@ def test_bulk_profile_errors_name_the_key(tmp_path: Path) -> None:
     message = str(info.value)
     for key in ("bulk.listen", "bulk.dir", "bulk.forward[0]", "bulk.forward_lanes"):
         assert key in message
+
+
+def test_relay_fetches_an_announced_image_from_the_vehicle(
+    tmp_path: Path, make_file: Callable[..., tuple[Path, bytes]]
+) -> None:
+    """The uuv translator's announcement goes through the relay's publish path: the relay
+    fetches the file from the vehicle's image server and the announced product (same
+    key) gains the transfer id; no second product appears."""
+    port = free_udp_port()
+    path, content = make_file(400_000, "atr-12.png")
+    recorder = Recorder()
+    with udt.UdtBulkChannel.ImageServer(path.parent, vehicle_id="uuv-delta") as server:
+        host, sport = server.address
+        text = f"""
+        [access]
+        any_operator = true
+        [bulk]
+        listen = "127.0.0.1:{port}"
+        dir = "{tmp_path / 'images'}"
+        fetch_priority = "oldest"
+        [bulk.sources]
+        "Nemo-60" = "{host}:{sport}"
+        """
+        prof = from_mapping(tomllib.loads(text), file="relay.toml")
+        announced = {"vehicle_id": "Nemo-60", "image_id": "atr-12", "file_name": "atr-12.png",
+                     "size_bytes": len(content), "sha256": sha(content), "transfer_id": "",
+                     "format": "png", "capture_time_ms": 0, "targets": []}
+
+        async def main() -> None:
+            runtime = Runtime(prof, publisher_factory=lambda _rt: recorder)
+            await runtime.start()
+            try:
+                runtime._publish("ImageProduct", announced)
+                for _ in range(200):
+                    await asyncio.sleep(0.05)
+                    if any(t == "ImageProduct" and s["transfer_id"] for t, s in recorder.samples):
+                        break
+                await asyncio.sleep(0.3)
+            finally:
+                await runtime.stop()
+
+        asyncio.run(main())
+    products = {(s["vehicle_id"], s["image_id"]): s for t, s in recorder.samples
+                if t == "ImageProduct"}
+    assert list(products) == [("Nemo-60", "atr-12")]
+    assert products[("Nemo-60", "atr-12")]["transfer_id"]
+    (stored,) = (tmp_path / "images").rglob("atr-12.png")
+    assert stored.read_bytes() == content

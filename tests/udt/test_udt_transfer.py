@@ -101,7 +101,7 @@ def test_transfer_interrupted_ten_times_completes(tmp_path: Path, make_file):
 
         cutter = threading.Thread(target=cut_the_link)
         cutter.start()
-        result = UdtBulkChannel.send_image(path, ops.address, vehicle_id="uuv1",
+        result = UdtBulkChannel.send_image(path, ops.address, vehicle_id="uuv1", lanes=1,
                                     max_rate_bps=24_000_000, backoff=FAST, give_up_after=20)
         done.set()
         cutter.join()
@@ -132,7 +132,7 @@ def test_receiver_killed_mid_transfer_resumes_from_its_journal(tmp_path: Path, m
     proc = _receiver_process(out, port)
     results = []
     sender = threading.Thread(target=lambda: results.append(UdtBulkChannel.send_image(
-        path, ("127.0.0.1", port), vehicle_id="uuv1", max_rate_bps=16_000_000,
+        path, ("127.0.0.1", port), vehicle_id="uuv1", max_rate_bps=16_000_000, lanes=1,
         backoff=UdtBulkChannel.Backoff(initial=0.1, maximum=0.3), give_up_after=20,
         stall_timeout=1.5)))
     sender.start()

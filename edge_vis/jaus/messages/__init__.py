@@ -28,11 +28,6 @@ nor value set keep their units only where the DSL's Int/Float can carry them.
 
 Left out:
 
-* 0x4600 ReportManipulatorSpecifications (IOP manipulator (older copy)): code taken by the kept
-  ReportManipulatorSpecifications (manipulator-1.0 already defines it as
-  ReportManipulatorSpecifications:
-  joint_specification_list[].prismatic_joint_specification_rec.max_force: u32[0..5000] newton vs
-  u32[0..5000] newton meter)
 * 0xF92A CBRNScanWindowConfigurationCommand (IOP services): same code as QueryMeasurement, which
   is kept (chosen deliberately)
 

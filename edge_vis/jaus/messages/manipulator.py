@@ -50,10 +50,13 @@ Differences between readings (the kept definition is named first):
   manipulator (older copy)): same layout under another name
 * 0x2631 QueryCommandedPanTiltJointVelocity / QueryCommandedPanTiltJointVelocities (JTS
   manipulator v1.0): same layout under another name
-* 0x4600 ReportManipulatorSpecifications (IOP manipulator (older copy)): manipulator-1.0 already
-  defines it as ReportManipulatorSpecifications:
+* 0x4600 ReportManipulatorSpecifications (IOP manipulator (older copy)): body: fields
+  ['manipulator_coordinate_system_rec', 'first_joint_parameters', 'joint_specification_list',
+  'joint_names_list'] vs ['manipulator_coordinate_system_rec', 'first_joint_parameters',
+  'joint_specification_list']; dialect manipulator-1.0; read with manipulator-1.0's definition,
+  the same on the wire (only labels differ:
   joint_specification_list[].prismatic_joint_specification_rec.max_force: u32[0..5000] newton vs
-  u32[0..5000] newton meter
+  u32[0..5000] newton meter)
 * 0x4600 ReportManipulatorSpecifications (JTS manipulator v1.0): body: fields
   ['manipulator_coordinate_system_rec', 'first_joint_parameters', 'joint_specification_list',
   'joint_names_list'] vs ['manipulator_coordinate_system_rec', 'first_joint_parameters',

@@ -41,9 +41,10 @@ OCEAN_ENVIRONMENT = UUV + "OceanEnvironmentSensor"
 ATR_NOTIFIER = UUV + "AtrImageNotifier"
 
 
-def version_of(uri: str) -> tuple[int, int]:
-    """(major, minor) version of a service URI as the vehicle reports it."""
-    return (1, 1) if uri.startswith(CORE) else (1, 0)
+def version_of(uri: str, version: tuple[int, int] | None = None) -> tuple[int, int]:
+    """(major, minor) version of a service URI as the vehicle reports it (``version``: its
+    component's, for any but core services)."""
+    return (1, 1) if uri.startswith(CORE) else version or (1, 0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -53,6 +54,11 @@ class ComponentSpec:
     component: int
     name: str
     services: tuple[str, ...]
+    #: the version of its services other than core ones (default 1.0)
+    version: tuple[int, int] | None = None
+    #: services it does not report but whose messages its services answer (an older
+    #: version's services answering what a newer version gave services of their own)
+    answers: tuple[str, ...] = ()
 
 
 UGV_LAYOUT: tuple[ComponentSpec, ...] = (

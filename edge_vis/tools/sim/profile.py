@@ -12,12 +12,19 @@ vehicle is ``name``, ``subsystem`` and ``link``::
     link = "udp://127.0.0.11:3794"            # or "pty" for a serial pseudo-terminal
     origin = { latitude = 36.6, longitude = -121.9 }
 
+    [vehicles.manipulator]                    # optional: an arm and a pan-tilt
+    version = "2.0"                           # or "1.0" (its services and wire layouts)
+
     [vehicles.faults]
     dropout = { every = 60.0, duration = 5.0, reboot = true }  # optional first = 10.0
     reject_events = ["QueryRangeSensorData"]  # or true for every CreateEvent
     refuse_control = false
     jts_example = false                       # ignore CreateEvent/QueryTimeout, INITIALIZE forever
     malformed_rate = 0.2                      # malformed frames per second
+
+A ``ugv`` with ``iop = true`` has a fourth component offering the IOP and UGV services
+(hand-off, cost map and no-go zones, CBRN, digital resources, skid-steer and Ackermann
+drivers, capabilities, a battery): :mod:`edge_vis.tools.sim.iop_sim`.
 
 A ``uuv`` does not implement JAUS Discovery: it announces itself with the vendor
 ``VendorHello`` message and reports ocean environment and ATR image notices unsolicited;
@@ -62,6 +69,7 @@ from urllib.parse import urlsplit
 from edge_vis.config.loader import read_toml
 from edge_vis.schema import Reader, setting
 from edge_vis.tools.sim import scripted
+from edge_vis.tools.sim.arm import ArmSpec
 from edge_vis.tools.sim.kinematics import Origin
 from edge_vis.tools.sim.scripted import HelloSpec, ReportSpec
 
@@ -151,7 +159,14 @@ class VehicleSpec:
     atr_period: float = setting(15.0, ge=0.0, unit="s")
     bulk_image_port: int = setting(0, ge=0, le=65535)
     atr_dir: str = ""
+    #: HOST:PORT where the vehicle serves ``atr_dir`` over UDT, as ``edge-vis serve-images``
+    #: does (port 0: a free one, printed with the vehicle); "" serves nothing
+    image_server: str = ""
+    #: ugv: a fourth component with the IOP and UGV services (edge_vis.tools.sim.iop_sim)
+    iop: bool = False
     faults: FaultSpec = field(default_factory=FaultSpec)
+    #: ugv: a manipulator and a pan-tilt (``[vehicles.manipulator]``, version 2.0 or 1.0)
+    manipulator: ArmSpec | None = None
     #: custom: the component id of its one component
     component: int = setting(1, ge=1, le=254)
     #: custom: JSIDL files of its messages (relative to the profile)
@@ -181,6 +196,8 @@ class VehicleSpec:
                            ("hello", self.hello), ("reports", self.reports)):
             if given and not custom:
                 yield key, f"only a vehicle of kind = \"custom\" takes {key} (this is {self.kind})"
+        if self.manipulator is not None and self.kind != "ugv":
+            yield "manipulator", f"only a vehicle of kind = \"ugv\" carries one ({self.kind})"
         if custom and self.hello is None and not self.reports:
             yield "kind", "a custom vehicle needs a hello, reports, or both"
 

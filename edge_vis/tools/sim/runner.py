@@ -35,6 +35,7 @@ from edge_vis.jaus.transport import (
     pack_datagram,
     unpack_datagram,
 )
+from edge_vis.tools.sim.image_serving import start_image_server
 from edge_vis.tools.sim.outputs import Action, Restarted, Send
 from edge_vis.tools.sim.profile import SimProfile, VehicleSpec
 from edge_vis.tools.sim.scripted import vehicle_catalogue
@@ -162,7 +163,7 @@ class VehicleEndpoint:
             if whole is None:
                 continue
             try:
-                message = self.catalogue.decode(whole.payload)
+                message = self.catalogue.decode(whole.payload, vehicle.dialects)
             except DecodeError as exc:
                 self.counters["undecodable"] += 1
                 log.warning("%s: undecodable message from %s: %s", self.name, whole.source, exc)
@@ -196,11 +197,15 @@ class VehicleEndpoint:
         self._sequences[source] = (seq + count) & 0xFFFF
         return seq
 
+    @property
+    def _dialects(self) -> tuple[str, ...]:
+        return self.vehicle.dialects if self.vehicle is not None else ()
+
     def _send(self, send: Send) -> None:
         if send.name == "ReportAtrImageAvailable" and self.spec.atr_dir:
             self._write_atr_image(int(send.fields["image_id"]))
         try:
-            payload = self.catalogue.encode(send.name, send.fields)
+            payload = self.catalogue.encode(send.name, send.fields, self._dialects)
         except EncodeError as exc:
             self.counters["encode_errors"] += 1
             log.error("%s: cannot encode %s: %s", self.name, send.name, exc)
@@ -497,6 +502,8 @@ class Simulation:
         #: a vehicle with JSIDL of its own speaks the shared catalogue plus its messages
         self.endpoints = [endpoint_for(v, vehicle_catalogue(v.jsidl, self.catalogue))
                           for v in profile.vehicles]
+        #: vehicle name -> its running image server (``image_server`` in the profile)
+        self.image_servers: dict[str, Any] = {}
 
     async def start(self) -> None:
         """Open every vehicle's medium; on failure close the ones already open.
@@ -512,13 +519,23 @@ class Simulation:
                     await ep.stop()
                     raise VehicleLinkError(ep, exc) from exc
                 started.append(ep)
+            for ep in self.endpoints:
+                if ep.spec.image_server:
+                    self.image_servers[ep.name] = start_image_server(ep.spec)
         except BaseException:
             for ep in started:
                 await ep.stop()
+            self._stop_image_servers()
             raise
+
+    def _stop_image_servers(self) -> None:
+        for server in self.image_servers.values():
+            server.stop()
+        self.image_servers.clear()
 
     async def stop(self) -> None:
         """Close everything."""
+        self._stop_image_servers()
         for ep in self.endpoints:
             await ep.stop()
 

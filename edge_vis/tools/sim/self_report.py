@@ -67,9 +67,9 @@ def _nodes(spec: VehicleSpec, layout: Sequence[ComponentSpec],
         "node_rec": {"node_id": spec.node},
         "component_list": [{
             "component_rec": {"component_id": c.component, "instance_id": 0},
-            "service_list": [{"uri": uri, "major_version_number": svc.version_of(uri)[0],
-                              "minor_version_number": svc.version_of(uri)[1]}
-                             for uri in c.services],
+            "service_list": [{"uri": uri, "major_version_number": v[0],
+                              "minor_version_number": v[1]}
+                             for uri in c.services for v in (svc.version_of(uri, c.version),)],
         } for c in comps],
     }]
 

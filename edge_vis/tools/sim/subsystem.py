@@ -27,6 +27,8 @@ Theory of operation
 * Commands (SetWrenchEffort, list manager, ExecuteList) are obeyed only from the
   controller and only in READY; otherwise silently ignored and counted.
 * The kinematic model advances in fixed steps of :data:`DT` seconds.
+* A vehicle with a manipulator gets its arm and pan-tilt components, their messages and
+  their dialect from :mod:`edge_vis.tools.sim.arm`.
 * Faults from the profile: scheduled drop-outs (silence, optionally a reboot that loses
   control, events, the waypoint list and sequence numbers), refused control, rejected
   events, the JAUS Toolset example's stubs (no events, no QueryTimeout, INITIALIZE
@@ -48,8 +50,8 @@ from typing import Any
 from edge_vis.catalogue import Catalogue, Message, default_catalogue
 from edge_vis.errors import DecodeError, EncodeError
 from edge_vis.jaus.address import BROADCAST, JausAddress
+from edge_vis.tools.sim import arm, iop_sim, scripted, self_report, sensing_control, spooling
 from edge_vis.tools.sim import components as svc
-from edge_vis.tools.sim import scripted, self_report, sensing_control, spooling
 from edge_vis.tools.sim.components import ComponentSpec
 from edge_vis.tools.sim.events import EVERY_CHANGE, PERIODIC, EventTable, Subscription
 from edge_vis.tools.sim.kinematics import Motion, clamp
@@ -86,7 +88,7 @@ class Component:
     def __init__(self, spec: ComponentSpec, address: JausAddress, vehicle: VehicleSpec) -> None:
         self.spec = spec
         self.address = address
-        self.services = frozenset(spec.services)
+        self.services = frozenset(spec.services + spec.answers)
         self.default_authority = vehicle.default_authority
         self.events = EventTable(vehicle.event_timeout) if svc.EVENTS in self.services else None
         self.controller: JausAddress | None = None
@@ -122,11 +124,19 @@ class SimVehicle:
         self.rng = random.Random(spec.seed)
         self.components: dict[JausAddress, Component] = {}
         self.layout = svc.layout(spec.kind)
+        if spec.iop and spec.kind == "ugv":
+            self.layout = (*self.layout, iop_sim.COMPONENT)
         if spec.kind == "custom":
             services = spec.services or scripted.services_of(self.catalogue, [
                 *([spec.hello.message] if spec.hello else []),
                 *(r.message for r in spec.reports)])
             self.layout = (ComponentSpec(spec.component, spec.name, services),)
+        #: the manipulator and pan-tilt (:mod:`edge_vis.tools.sim.arm`), if it has them
+        self.arm = arm.Arm(spec.manipulator) if spec.manipulator is not None else None
+        if spec.manipulator is not None:
+            self.layout = (*self.layout, *arm.layout(spec.manipulator))
+        #: the message dialects it speaks on the wire
+        self.dialects = self.arm.dialects if self.arm is not None else ()
         for cspec in self.layout:
             addr = svc.address(spec.subsystem, spec.node, cspec)
             self.components[addr] = Component(cspec, addr, spec)
@@ -225,6 +235,8 @@ class SimVehicle:
             return out
         for comp in self.components.values():
             out += self._control_timeout(comp, now)
+            if comp.offers(iop_sim.ENHANCED_ACCESS_CONTROL):
+                out += iop_sim.expire(self, comp, now)
             if comp.events is not None:
                 for sub in comp.events.expire(now):
                     log.info("%s: event %d (%s) of %s expired", self.name, sub.event_id,
@@ -289,6 +301,9 @@ class SimVehicle:
             self.waypoints.steer(self.motion, self.spec.origin)
             self.spooler.step(self._physics_time)
             self.motion.step(DT)
+            if self.arm is not None:
+                self.arm.step(DT, *(self._ready(c) for c in (arm.ARM_COMPONENT,
+                                                             arm.PAN_TILT_COMPONENT)))
             self.sensors.t = self._physics_time
         if self._init_done_at <= now:
             self._init_done_at = math.inf
@@ -314,6 +329,10 @@ class SimVehicle:
             log.warning("%s: back after drop-out%s", self.name,
                         " (rebooted)" if self.spec.faults.dropout_reboot else "")
         return out
+
+    def _ready(self, component_id: int) -> bool:
+        comp = self.component(component_id)
+        return comp.controller is not None and comp.state == READY
 
     def _reboot(self, now: float) -> list[Action]:
         self.reboots += 1
@@ -356,7 +375,8 @@ class SimVehicle:
     def _leave_ready(self, comp: Component) -> None:
         if comp.state == READY:
             comp.state = STANDBY
-        if comp.offers(svc.PRIMITIVE_DRIVER) or comp.offers(svc.WAYPOINT_LIST_DRIVER):
+        if any(comp.offers(s) for s in (svc.PRIMITIVE_DRIVER, svc.WAYPOINT_LIST_DRIVER,
+                                        iop_sim.SKID_STEER, iop_sim.ACKERMANN)):
             self._halt()
         if comp.offers(svc.MISSION_SPOOLER):
             self.spooler.lost_control()
@@ -539,7 +559,7 @@ class SimVehicle:
 
     def _decode_query(self, payload: bytes) -> Message | None:
         try:
-            query = self.catalogue.decode(payload)
+            query = self.catalogue.decode(payload, self.dialects)
         except DecodeError:
             return None
         return query if query.name is not None else None
@@ -653,7 +673,7 @@ class SimVehicle:
                 return []
             sub.last_report = key
         try:
-            payload = self.catalogue.encode(self._code(name), fields)
+            payload = self.catalogue.encode(self._code(name), fields, self.dialects)
         except EncodeError as exc:
             log.error("%s: cannot encode %s for event %d: %s", self.name, name, sub.event_id, exc)
             return []
@@ -814,7 +834,7 @@ class SimVehicle:
         """The hello of the profile (custom) or the UUV's VendorHello, from the JSIDL."""
         assert self.hello is not None
         comp = self._first(svc.VENDOR_DISCOVERY) or self._first_component()
-        services = [(uri, svc.version_of(uri)) for uri in comp.spec.services]
+        services = [(uri, svc.version_of(uri, comp.spec.version)) for uri in comp.spec.services]
         return Send(comp.address, BROADCAST, self.hello.message, scripted.hello_fields(
             self.catalogue, self.hello, self.name, comp.address, services))
 
@@ -982,8 +1002,14 @@ _QUERIES: dict[str, tuple[str, str, Builder]] = {
 
 _HANDLERS.update(sensing_control.HANDLERS)
 _QUERIES.update(sensing_control.QUERIES)
+# the IOP and UGV services of a vehicle with ``iop = true`` (:mod:`edge_vis.tools.sim.iop_sim`)
+_HANDLERS.update(iop_sim.HANDLERS)
+_QUERIES.update(iop_sim.QUERIES)
 
 #: reports whose optional fields follow the query's presence vector
 _PV_FILTERED = frozenset({"ReportGlobalPose", "ReportLocalPose", "ReportVelocityState",
                           "ReportWrenchEffort", "ReportOceanEnvironment", "ReportTime"})
 
+
+_HANDLERS.update(arm.HANDLERS)
+_QUERIES.update(arm.QUERIES)
