@@ -4,6 +4,7 @@
     .venv/bin/python bench/footprint.py --settle 20 --seconds 3   # shorter
     .venv/bin/python bench/footprint.py --bundle dist/edge-vis.pyz --no-dds
     .venv/bin/python bench/footprint.py --only forwarder --callgrind   # + instructions/msg
+    .venv/bin/python bench/footprint.py --only forwarder --burst 0 --cycles 2 --paths serial:2
 
 Parts, each in its own process so that one does not colour another's memory:
 
@@ -23,7 +24,10 @@ Parts, each in its own process so that one does not colour another's memory:
    ``--burst`` messages as fast as this process can send them (at most 1,024 in flight,
    so the kernel drops none), the peak resident memory during it (``VmHWM`` after
    ``clear_refs``), and the resident memory over ``--settle`` seconds after it
-   (``VmRSS``), against the idle figure before.
+   (``VmRSS``), against the idle figure before. udp->serial and the floor are measured
+   again with each UDP receive cycle of ``--cycles`` (the link's ``cycle`` option; the
+   floor reads on the same timer), and every path reports the time from send to arrival
+   at the sink (p50 / p99) at each rate. ``--paths serial:5,bare:0`` picks forwarders.
 2. **JAUS report -> DDS sample**: ``bench/engine.py``'s pipeline (router, catalogue,
    engine, mobility translator, ``DdsBridge.publish`` to a real Cyclone writer) fed
    ReportGlobalPose at a paced 1,000 reports/s; CPU = ``time.process_time`` (all threads,
