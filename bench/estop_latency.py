@@ -70,7 +70,7 @@ def estop(bridge: Any, vehicle_id: str) -> None:
 
 async def wait_matched(bridge: Any, runtime: Runtime) -> None:
     for _ in range(200):
-        if bridge._writer("EmergencyCommand").get_matched_subscriptions():
+        if bridge.matched_subscribers("EmergencyCommand"):
             return
         await asyncio.sleep(0.05)
     raise SystemExit("the relay's EmergencyCommand reader never matched")

@@ -16,6 +16,13 @@
 # cyclonedds command-line tools' dependencies (rich-click, ...) are left out: the relay
 # only uses the library. Wheels come from the build machine's cache or PyPI; udt4py is
 # built from source against libudt-dev (see scripts/setup.sh) when no wheel is cached.
+#
+# DDS Security: with PYTHON=.venv-secure/bin/python (scripts/setup.sh --secure) the bundle
+# carries that environment's cyclonedds binding, built again from source against Debian's
+# Cyclone DDS (never the PyPI wheel of the same version, whose bundled library has no
+# security plugins), kept apart in build/wheelhouse/secure. The relay then
+# needs Debian's libddsc0debian installed, and the build fails if the assembled bundle
+# would not have DDS Security.
 set -euo pipefail
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -23,7 +30,17 @@ cd "$here"
 if [[ -z ${PYTHON:-} ]]; then
     if [[ -x .venv/bin/python ]]; then PYTHON=.venv/bin/python; else PYTHON=python3; fi
 fi
+# the build Python's binding loads a system Cyclone DDS (the secure set-up): its version
+secure=$("$PYTHON" - <<'EOF' 2>/dev/null || true
+from importlib.metadata import version
+from cyclonedds import __library__ as library
+if library.in_wheel is False:
+    print(version("cyclonedds"))
+EOF
+)
 wheelhouse=${EDGE_VIS_WHEELHOUSE:-$here/build/wheelhouse}
+# the binding built against the system library, apart from the index's wheels
+secure_wheels="$wheelhouse/secure"
 out=${EDGE_VIS_BUNDLE:-$here/dist/edge-vis.pyz}
 mkdir -p "$wheelhouse" "$(dirname "$out")"
 work=$(mktemp -d "${TMPDIR:-/tmp}/edge-vis-bundle.XXXXXX")
@@ -54,8 +71,27 @@ pip wheel -q --no-deps -w "$wheelhouse" "$work/src"
 
 # 2. dependencies, reusing wheels already in the wheelhouse
 deps=("$(pin cyclonedds 'cyclonedds>=0.10')" "$(pin pyserial 'pyserial>=3.5')")
-say "fetching ${deps[*]}"
-pip wheel -q --no-deps --find-links "$wheelhouse" -w "$wheelhouse" "${deps[@]}"
+if [[ -n $secure ]] && ! compgen -G "$secure_wheels/cyclonedds-$secure-*.whl" >/dev/null; then
+    # as scripts/setup.sh --secure builds it: $CYCLONEDDS_HOME/{include,bin,lib} are
+    # Debian's /usr/include, /usr/bin and multiarch library folder
+    multiarch="$(dpkg-architecture -qDEB_HOST_MULTIARCH 2>/dev/null || gcc -print-multiarch)"
+    home="$work/cyclonedds-home"
+    mkdir -p "$home"
+    ln -s /usr/include "$home/include"
+    ln -s /usr/bin "$home/bin"
+    ln -s "/usr/lib/$multiarch" "$home/lib"
+    say "building cyclonedds==$secure against Debian's Cyclone DDS (DDS Security)"
+    rm -rf "$secure_wheels"
+    CYCLONEDDS_HOME="$home" pip wheel -q --no-deps --no-cache-dir --no-binary cyclonedds \
+        -w "$secure_wheels" "cyclonedds==$secure"
+fi
+if [[ -n $secure ]]; then
+    fetch=("${deps[@]:1}")  # the index's wheel of that version must not replace it
+else
+    fetch=("${deps[@]}")
+fi
+say "fetching ${fetch[*]}"
+pip wheel -q --no-deps --find-links "$wheelhouse" -w "$wheelhouse" "${fetch[@]}"
 if "$PYTHON" -c "import udt4py" 2>/dev/null; then
     udt=$(pin udt4py 'udt4py>=1.2')
     say "building $udt (needs Cython and wheel in the build environment, and libudt-dev)"
@@ -67,9 +103,24 @@ fi
 
 # 3. one site-packages with exactly these distributions, then the zipapp
 say "assembling $out"
+if [[ -n $secure ]]; then  # that very wheel, whatever else the wheelhouse holds
+    deps[0]=$(echo "$secure_wheels"/cyclonedds-*.whl)
+fi
 pip install -q --no-deps --no-index --find-links "$wheelhouse" --target "$work/site" \
     edge-vis "${deps[@]}"
 rm -rf "$work/site/bin"
+if [[ -n $secure ]] && ! "$PYTHON" -S - "$work/site" <<'EOF'
+import sys
+sys.path.insert(0, sys.argv[1])
+import cyclonedds.core  # noqa: F401  loads the library the bundle will load
+from edge_vis.dds.secure_qos import security_available
+sys.exit(not security_available())
+EOF
+then
+    echo "build-bundle: the assembled cyclonedds does not load Debian's Cyclone DDS:" \
+         "the bundle would have no DDS Security" >&2
+    exit 1
+fi
 # Byte-code that stays valid after extraction (file times change then): the first start on
 # the relay does not compile anything.
 "$PYTHON" -m compileall -q -f --invalidation-mode unchecked-hash "$work/site" >/dev/null

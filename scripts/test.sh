@@ -9,11 +9,13 @@
 # test fails instead of blocking CI.
 #
 # Then a second pass on the DDS Security binding: `scripts/setup.sh --secure` (Debian's
-# Cyclone DDS with its security plugins, .venv-secure) and pytest on the tests that use
-# DDS there (SECURE_TESTS below: the bridge on that binding, secured relays and operators
-# in separate processes). It runs whenever the secure set-up is possible here (Debian
-# packages installed, or apt with root/sudo and the packages available); otherwise it is
-# skipped with the reason. EDGE_VIS_SECURE_PASS=0 skips it, =1 makes it mandatory.
+# Cyclone DDS with its security plugins, .venv-secure) and pytest on the tests where the
+# binding matters (SECURE_TESTS below: the bridge on that binding, DDS end to end, secured
+# relays and operators in separate processes, the security tooling, a bundle built from
+# that environment, the image receiver on DDS; about 5 min. Not the whole suite, which
+# takes about 26 min on 0.10.2 under load: README "Set-up details"). It runs whenever the
+# secure set-up is possible here (Debian packages installed, or apt with root/sudo and the
+# packages available); otherwise it is skipped with the reason. EDGE_VIS_SECURE_PASS=0 skips it, =1 makes it mandatory.
 set -uo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -21,7 +23,8 @@ VENV="${EDGE_VIS_VENV:-$ROOT/.venv}"
 VPY="$VENV/bin/python"
 TIMEOUT="${EDGE_VIS_TEST_TIMEOUT:-1800}"
 SECURE_PASS="${EDGE_VIS_SECURE_PASS:-auto}"
-SECURE_TESTS=(tests/dds tests/cli/test_security_cli.py tests/test_security.py)
+SECURE_TESTS=(tests/dds tests/e2e tests/cli/test_security_cli.py tests/test_security.py
+              tests/deploy/test_bundle.py tests/udt/test_udt_cli.py)
 
 bash "$ROOT/scripts/setup.sh" || { echo "test: set-up failed; nothing was tested" >&2; exit 1; }
 cd "$ROOT" || exit 1

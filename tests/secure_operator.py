@@ -5,7 +5,9 @@
 CONFIG: ``domain``, ``partitions`` (the relay's), ``security`` (a dict of
 ``[dds.security]`` file paths, or null for a station without DDS Security),
 ``write_partition`` (where its commands go), ``claim`` (the operator_id it puts in its
-commands), ``seconds`` (how long it tries). It prints one JSON object per line:
+commands), ``seconds`` (how long it tries), ``stop`` (instead of driving: set the
+vehicle's emergency stop as ``claim``, report it, then clear it as itself).
+It prints one JSON object per line:
 
 * ``{"event": "joined"}`` or ``{"event": "join_refused", "error": ...}`` (then it exits);
 * ``{"event": "writer_refused", "error": ...}`` when its permissions deny a command writer;
@@ -47,7 +49,7 @@ def main(config: dict) -> int:
     seconds = float(config["seconds"])
     try:
         try:
-            bridge.open_writers(["ControlRequest", "WrenchEffortCommand"])
+            bridge.open_writers(["ControlRequest", "WrenchEffortCommand", "EmergencyCommand"])
             writers = True
         except DdsError as exc:
             say(event="writer_refused", error=str(exc))
@@ -63,6 +65,8 @@ def main(config: dict) -> int:
         if not writers:
             return 0
         claim = config["claim"]
+        if config.get("stop"):
+            return emergency(bridge, vehicle, claim, config["write_as"], seconds)
         status: dict = {}
         deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
@@ -77,6 +81,29 @@ def main(config: dict) -> int:
         return 0
     finally:
         bridge.close()
+
+
+def emergency(bridge: DdsBridge, vehicle: str, claim: str, me: str, seconds: float) -> int:
+    """SET as ``claim`` until VehicleStatus shows the stop (``{"event": "stopped",
+    "status": ...}``, or ``{"event": "not_stopped"}``), then CLEAR as ``me``."""
+    statuses = bridge.reader("VehicleStatus", depth=16)
+    deadline = time.monotonic() + seconds
+    stopped: dict | None = None
+    while stopped is None and time.monotonic() < deadline:
+        bridge.publish("EmergencyCommand", {"vehicle_id": vehicle, "operator_id": claim,
+                                            "action": "SET", "reason": "secure test"})
+        time.sleep(0.2)
+        stopped = next((s for s in statuses.take() if s.get("emergency")), None)
+    say(event="stopped", status=stopped) if stopped else say(event="not_stopped")
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        bridge.publish("EmergencyCommand", {"vehicle_id": vehicle, "operator_id": me,
+                                            "action": "CLEAR", "reason": "secure test"})
+        time.sleep(0.2)
+        if any(not s.get("emergency") for s in statuses.take()):
+            say(event="cleared")
+            break
+    return 0
 
 
 if __name__ == "__main__":

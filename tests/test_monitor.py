@@ -246,6 +246,21 @@ def test_plain_output_lists_the_vehicles_published_on_dds() -> None:
     assert '"GlobalPose"' in done.stdout  # the JSON summary counts samples per topic
 
 
+def test_the_serving_relay_and_take_overs_are_shown_and_links_per_relay() -> None:
+    view = FleetView()
+    view.ingest("VehicleStatus", {"vehicle_id": "v", "state": "READY", "online": True,
+                                  "relay": "201.1.1"}, 0.0)
+    assert any("relay 201.1.1" in line for line in view.render(0.0))
+    view.ingest("VehicleStatus", {"vehicle_id": "v", "state": "READY", "online": True,
+                                  "relay": "202.1.1"}, 1.0)
+    assert any("relay 202.1.1 (taken over 1x)" in line for line in view.render(1.0))
+    for relay in ("201.1.1", "202.1.1"):
+        view.ingest("LinkStatus", {"link": "radio", "relay": relay, "up": True}, 1.0)
+    rows = [line for line in view.render(1.0) if line.startswith("radio")]
+    assert [row.split()[-1] for row in rows] == ["201.1.1", "202.1.1"]
+    assert all(len(line) <= 79 for line in view.render(1.0))
+
+
 def test_handoff_requests_are_shown_and_answered_by_keys() -> None:
     view = FleetView()
     _fleet(view, 0.0)

@@ -9,7 +9,9 @@ Publishes, from the engine's view of each vehicle:
   refused commands (``rejected_commands``, ``last_rejection``) and, per component with
   AccessControl, who controls it with which authority and whether that is this relay
   (``holders``, from the engine's QueryControl and QueryAuthority);
-* both when an emergency stop is set, confirmed or cleared (``emergency``).
+* both when an emergency stop is set, confirmed or cleared (``emergency``);
+* all three when this relay starts serving the vehicle (``serving``, another relay
+  served it before); ``VehicleStatus.relay`` names the relay serving it.
 """
 
 from __future__ import annotations
@@ -52,6 +54,7 @@ def status_sample(view: VehicleView) -> dict[str, Any]:
         "emergency": view.emergency,
         "emergency_operator": view.emergency_operator,
         "emergency_reason": view.emergency_reason,
+        "relay": view.relay,
     }
 
 
@@ -102,6 +105,10 @@ class CoreTranslator(Translator):
             return [Publish("VehicleStatus", status_sample(view))]
         if change == "control":
             return [Publish("ControlStatus", control_sample(view, ctx.timestamp_ms))]
+        if change == "serving":  # this relay took the vehicle over: its state, afresh
+            return [Publish("VehicleIdentification", identification_sample(view)),
+                    Publish("VehicleStatus", status_sample(view)),
+                    Publish("ControlStatus", control_sample(view, ctx.timestamp_ms))]
         if change == "emergency":
             return [Publish("VehicleStatus", status_sample(view)),
                     Publish("ControlStatus", control_sample(view, ctx.timestamp_ms))]

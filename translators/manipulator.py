@@ -29,7 +29,13 @@ DDS -> JAUS (behind control, throttled by the engine):
   ``EndEffectorCommand`` mode ``tool_offset`` -> SetToolOffset;
 * ``JointCommand`` with quantity ``execute_list`` -> ExecuteList (the manipulator's, code
   0x061E, not mobility's of the same name) to the joint-positions list driver, starting
-  at element ``values[0]``.
+  at element ``values[0]``;
+* ``ManipulatorPlan`` -> the List Manager sequence (DeleteElement, SetElement with
+  SetJointPositions or SetEndEffectorPose elements, ExecuteList) to the joint-position or
+  end-effector-pose list driver (see :class:`ManipulatorLists`); its progress
+  (ConfirmElementRequest, RejectElementRequest, the manipulator's ReportActiveElement) ->
+  ``ManipulatorPlanStatus``, and what each list driver holds (ReportElementList,
+  ReportElement, ReportElementCount) -> ``ManipulatorList``.
 
 Manipulator v1.0 and v2.0 both: the engine matches v1.0 services to the v2.0 ones that
 took over their messages and decodes a v1.0 vehicle's messages with the v1.0 definitions
@@ -45,10 +51,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 from edge_vis.kit import (
+    ELEMENTS_PER_SET,
+    LIST_REPLIES,
+    LIST_REPORTS,
     Action,
     Build,
     Command,
@@ -56,11 +65,18 @@ from edge_vis.kit import (
     Const,
     Each,
     From,
+    HeldList,
+    JausAddress,
+    ListDriver,
+    ListLoader,
+    ListReadBack,
+    Publish,
     Put,
     PutEach,
     ReportRule,
     RuleTranslator,
     TranslatorContext,
+    list_bindings,
 )
 from edge_vis.kit import CommandRule as Cmd
 
@@ -299,6 +315,222 @@ _PT_PROFILE = ("joint1_max_speed", "joint1_max_acceleration_rate",
                "joint2_max_acceleration_rate", "joint2_max_deceleration_rate")
 
 
+# -- the manipulator's List Manager (ManipulatorPlan -> list driver -> status, read-back) ---
+
+JOINT_LIST_DRIVER = MANIP + "ManipulatorJointPositionListDriver"
+#: the v1.0 name of the joint-position list driver
+JOINT_LIST_DRIVER_V1 = MANIP + "ManipulatorJointPositionsListDriver"
+POSE_LIST_DRIVER = MANIP + "ManipulatorEndEffectorPoseListDriver"
+#: the list drivers a plan is loaded into (the kit's list mechanism; ExecuteList and
+#: ReportActiveElement of the manipulator set, 0x061E / 0x461E)
+LIST_DRIVERS = (
+    ListDriver(JOINT_LIST_DRIVER, "manipulator", ("SetJointPositions",), "manipulator_list"),
+    ListDriver(JOINT_LIST_DRIVER_V1, "manipulator", ("SetJointPositions",), "manipulator_list"),
+    ListDriver(POSE_LIST_DRIVER, "manipulator", ("SetEndEffectorPose",), "manipulator_list"),
+)
+#: ManipulatorPlan mode -> the drivers that take it, preferred first
+PLAN_MODES = {"joint_positions": LIST_DRIVERS[:2], "end_effector_pose": LIST_DRIVERS[2:]}
+LIST_MESSAGES = (*LIST_REPLIES, *LIST_REPORTS, "ReportActiveElement")
+_POSE_FIELDS = (("x", "tool_point_coordinate_x", 30.0), ("y", "tool_point_coordinate_y", 30.0),
+                ("z", "tool_point_coordinate_z", 30.0),
+                ("qw", "d_component_of_unit_quaternion_q", 1.0),
+                ("qx", "a_component_of_unit_quaternion_q", 1.0),
+                ("qy", "b_component_of_unit_quaternion_q", 1.0),
+                ("qz", "c_component_of_unit_quaternion_q", 1.0))
+
+
+def target_fields(mode: str, target: Mapping[str, Any]) -> dict[str, Any]:
+    """The element message's fields of one ``ManipulatorTarget``: SetJointPositions (rad,
+    or m where ``units[i]`` is "m", clamped) or SetEndEffectorPose (m, quaternion)."""
+    if mode == "joint_positions":
+        values = list(target.get("values") or ())
+        if not values:
+            raise ValueError("a joint_positions target has no values")
+        return {"joint_position_list": [_position(v, i, target) for i, v in enumerate(values)]}
+    return {jaus: _lim(target.get(dds, 1.0 if dds == "qw" else 0.0), limit)
+            for dds, jaus, limit in _POSE_FIELDS}
+
+
+def _held_target(message: str, fields: Mapping[str, Any], uid: int, previous: int,
+                 following: int) -> dict[str, Any]:
+    """A ``ManipulatorListElement`` of a list element read back (NaN where unset)."""
+    target: dict[str, Any] = {"values": [], "units": [],
+                              **{dds: math.nan for dds, _, _ in _POSE_FIELDS}}
+    if message == "SetJointPositions":
+        for joint in fields.get("joint_position_list") or ():
+            (unit, value), = dict(joint.get("joint_position") or {"radian": math.nan}).items()
+            target["values"].append(float(value))
+            target["units"].append(_POS_UNITS.get(unit, unit))
+    elif message == "SetEndEffectorPose":
+        target.update({dds: float(fields.get(jaus, math.nan)) for dds, jaus, _ in _POSE_FIELDS})
+    return {"uid": uid, "previous_uid": previous, "next_uid": following, "message": message,
+            "target": target}
+
+
+def _held_list(vehicle_id: str, component: JausAddress, held: HeldList,
+               ctx: TranslatorContext) -> Publish:
+    return Publish("ManipulatorList", {
+        "vehicle_id": vehicle_id, "component": str(component), "element_count": held.count,
+        "elements": held.listed(), "complete": held.complete(),
+        "timestamp_ms": ctx.timestamp_ms})
+
+
+@dataclass
+class _ArmPlan:
+    plan_id: str
+    mode: str
+    count: int
+    active: int = -1
+    state: str = "PENDING"
+    reason: str = ""
+
+
+class ManipulatorLists:
+    """``ManipulatorPlan`` -> the manipulator's List Manager -> ``ManipulatorPlanStatus``;
+    what each list driver holds -> ``ManipulatorList``.
+
+    A plan is loaded by the kit's list mechanism (DeleteElement, SetElement batches of
+    SetJointPositions or SetEndEffectorPose elements, each after the previous was
+    confirmed, then the manipulator's ExecuteList from the first element); its progress
+    is the driver's ReportActiveElement (0x461E): target ``uid - 1`` while executing,
+    COMPLETED when it reports 0 after it reported one of the plan's targets (a 0 reported
+    before then was sent before ExecuteList arrived). The lists are read back as mobility's
+    plans are (ReportElementList events, QueryElement), and again after a plan executes.
+    """
+
+    def __init__(self) -> None:
+        self.loader = ListLoader()
+        self.plans: dict[str, _ArmPlan] = {}
+        self.held = ListReadBack(LIST_DRIVERS, _held_target, _held_list)
+
+    def on_plan(self, sample: Mapping[str, Any], ctx: TranslatorContext) -> list[Action]:
+        vehicle = ctx.vehicle
+        if vehicle is None:
+            return []
+        vid = vehicle.vehicle_id
+        mode = str(sample.get("mode") or "joint_positions").strip().lower()
+        targets = [dict(t) for t in sample.get("targets") or ()]
+        plan = self.plans[vid] = _ArmPlan(str(sample.get("plan_id", "")), mode, len(targets))
+        self.loader.loads.pop(vid, None)  # a new plan replaces any load
+        offered = {uri for uri, _ in vehicle.services}
+        drivers = [d for d in PLAN_MODES.get(mode, ()) if d.service in offered]
+        try:
+            if mode not in PLAN_MODES:
+                raise ValueError(f"mode {mode!r} is not one of {', '.join(PLAN_MODES)}")
+            if not targets:
+                raise ValueError("the plan has no targets")
+            if not drivers:
+                raise ValueError(f"the vehicle offers no {mode} list driver")
+            elements = [target_fields(mode, t) for t in targets]
+        except ValueError as exc:
+            plan.state, plan.reason = "FAILED", str(exc)
+            return [self._status(vid, ctx)]
+        driver = drivers[0]
+        first = self.loader.load(vid, vid, str(sample.get("operator_id", "")), driver,
+                                 driver.elements[0], elements, ctx.catalogue,
+                                 lambda: {"element_uid": 1})
+        return [first, self._status(vid, ctx)]
+
+    def on_message(self, name: str, fields: Mapping[str, Any],
+                   ctx: TranslatorContext) -> list[Action]:
+        if ctx.vehicle is None:
+            return []
+        if name in LIST_REPORTS:
+            return self.held.on_report(name, fields, ctx)
+        vid = ctx.vehicle.vehicle_id
+        plan = self.plans.get(vid)
+        if plan is None:
+            return []
+        if name in LIST_REPLIES:
+            steps = self.loader.on_reply(vid, name, fields)
+            if steps is None:
+                return []
+            load = self.loader.loads[vid]
+            if load.state == "FAILED":
+                plan.state, plan.reason = "FAILED", load.reason
+                return [self._status(vid, ctx)]
+            actions: list[Action] = list(steps)
+            if load.state == "EXECUTING":
+                plan.state = "EXECUTING"
+                actions.append(self._status(vid, ctx))
+                if ctx.source is not None:  # read back what the driver now holds
+                    actions += self.held.refresh(vid, ctx.source)
+            return actions
+        if name == "ReportActiveElement" and plan.state == "EXECUTING":
+            uid = int(fields.get("element_uid", 0))
+            if 1 <= uid <= plan.count:
+                plan.active = uid - 1
+            elif uid == 0 and plan.active >= 0:
+                plan.active, plan.state = -1, "COMPLETED"
+            else:
+                # not an element of this plan, or none active yet: a report from before
+                # ExecuteList reached the arm, not the end of the plan
+                return []
+            return [self._status(vid, ctx)]
+        return []
+
+    def _status(self, vehicle_id: str, ctx: TranslatorContext) -> Publish:
+        plan = self.plans[vehicle_id]
+        return Publish("ManipulatorPlanStatus", {
+            "vehicle_id": vehicle_id, "plan_id": plan.plan_id, "mode": plan.mode,
+            "active_target": plan.active, "target_count": plan.count, "state": plan.state,
+            "reason": plan.reason, "timestamp_ms": ctx.timestamp_ms})
+
+
+def _list_rows() -> list[dict[str, Any]]:
+    """Mapping-table rows of the manipulator's List Manager."""
+    def row(direction: str, message: str, topic: str, fields: list[tuple[str, str, str]],
+            query: str = "", doc: str = "", service_set: str = "") -> dict[str, Any]:
+        out = {"translator": "manipulator", "direction": direction, "message": message,
+               "topic": topic, "query": query, "service": "", "rate": None,
+               "fields": [{"jaus": j, "dds": d, "note": n} for j, d, n in fields], "doc": doc}
+        if service_set:
+            out["service_set"] = service_set
+        return out
+
+    joints = [("joint_position_list[].joint_position", "targets[].values, units",
+               "rad, or m where units[i] is m; clamped")]
+    pose = [(jaus, f"targets[].{dds}", "m" if dds in "xyz" else "unit quaternion")
+            for dds, jaus, _ in _POSE_FIELDS]
+    element = [("element_uid / previous_uid / next_uid",
+                "elements[].uid / previous_uid / next_uid", ""),
+               ("element_data (SetJointPositions | SetEndEffectorPose)",
+                "elements[].message, target", "decoded")]
+    return [
+        row("dds->jaus", "DeleteElement", "ManipulatorPlan",
+            [("delete_element_list[].element_uid", "= 65535", "")],
+            doc="every element, before a new plan"),
+        row("dds->jaus", "SetElement", "ManipulatorPlan",
+            [("element_list[].element_data", "targets[]", "UIDs 1..n, linked")],
+            doc=f"<= {ELEMENTS_PER_SET} targets each, after the previous was confirmed"),
+        row("dds->jaus", "SetJointPositions", "ManipulatorPlan", joints,
+            doc="list element data, mode joint_positions"),
+        row("dds->jaus", "SetEndEffectorPose", "ManipulatorPlan", pose,
+            doc="list element data, mode end_effector_pose"),
+        row("dds->jaus", "ExecuteList", "ManipulatorPlan",
+            [("element_uid", "= 1", "the first target")],
+            doc="after the last ConfirmElementRequest", service_set="manipulator"),
+        row("jaus->dds", "ConfirmElementRequest", "ManipulatorPlanStatus",
+            [("request_id", "state", "next step")],
+            doc="from a manipulator list driver"),
+        row("jaus->dds", "RejectElementRequest", "ManipulatorPlanStatus",
+            [("response_code", "state, reason", "FAILED")],
+            doc="from a manipulator list driver"),
+        row("jaus->dds", "ReportActiveElement", "ManipulatorPlanStatus",
+            [("element_uid", "active_target", "uid - 1; 0 after executing = COMPLETED")],
+            "QueryActiveElement", "every-change event", service_set="manipulator"),
+        row("jaus->dds", "ReportElementList", "ManipulatorList",
+            [("element_list[].element_uid", "elements (order), element_count", "")],
+            "QueryElementList", "every-change event; a changed list is read with "
+            "QueryElement"),
+        row("jaus->dds", "ReportElement", "ManipulatorList", element, "QueryElement",
+            "asked for each listed element"),
+        row("jaus->dds", "ReportElementCount", "ManipulatorList",
+            [("element_count", "element_count", "a different count re-reads the list")],
+            "QueryElementCount"),
+    ]
+
+
 class ManipulatorTranslator(RuleTranslator):
     """Manipulator service set <-> JointState, EndEffector* topics and their commands."""
 
@@ -487,10 +719,39 @@ class ManipulatorTranslator(RuleTranslator):
             when={"mode": "tool_offset"}),
     )
     not_translated = ()
+    extra_messages = LIST_MESSAGES
+    extra_publishes = ("ManipulatorPlanStatus", "ManipulatorList")
+
+    @classmethod
+    def _derive(cls) -> None:
+        super()._derive()
+        # the List Manager's plans: its list drivers' lists and progress, ManipulatorPlan
+        cls.reports = (*cls.reports, *(d.read_back() for d in LIST_DRIVERS),
+                       *(d.progress() for d in LIST_DRIVERS))
+        cls.subscribes = (*cls.subscribes, "ManipulatorPlan")
+        cls.controlled_services = tuple(dict.fromkeys(
+            (*cls.controlled_services, *(d.service for d in LIST_DRIVERS))))
+        cls.bindings = {**cls.bindings, **list_bindings(LIST_DRIVERS)}
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.lists = ManipulatorLists()
+
+    def on_message(self, name: str, fields: Mapping[str, Any],
+                   ctx: TranslatorContext) -> list[Action]:
+        if name in LIST_MESSAGES:
+            return self.lists.on_message(name, fields, ctx)
+        return super().on_message(name, fields, ctx)
+
+    def describe(self) -> list[dict[str, Any]]:
+        """The rule tables' rows, then the List Manager's."""
+        return [*super().describe(), *_list_rows()]
 
     def on_sample(self, topic: str, sample: Mapping[str, Any],
                   ctx: TranslatorContext) -> list[Action]:
         """A v1.0 manipulator gets the v1.0 field names where v1.0 named them otherwise."""
+        if topic == "ManipulatorPlan":
+            return self.lists.on_plan(sample, ctx)
         actions = super().on_sample(topic, sample, ctx)
         if ctx.vehicle is None or not ctx.vehicle.speaks(V1, SET_MOTION_PROFILE):
             return actions

@@ -17,7 +17,7 @@ No I/O. The pose, velocity, effort, vector, limit and pose-reset mappings are ru
 * ReportElementList, ReportElement, ReportElementCount (each waypoint list and path
   segment driver's List Manager) and Report{Global,Local}{Waypoint,PathSegment} (what a
   driver is going to) -> ``VehiclePlan``, the plan each component actually holds (see
-  :class:`PlanReadBack`)
+  :func:`plan_read_back`)
 
 DDS -> JAUS (commands, throttled and control-checked by the engine):
 
@@ -55,14 +55,21 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from edge_vis.kit import (
+    ELEMENTS_PER_SET,
+    LIST_REPLIES,
+    LIST_REPORTS,
     NAN,
+    QUERIES_IN_FLIGHT,
     Action,
     Build,
     Command,
     Const,
-    DecodeError,
     From,
+    HeldList,
     JausAddress,
+    ListDriver,
+    ListLoader,
+    ListReadBack,
     Publish,
     Put,
     ReportRule,
@@ -70,8 +77,8 @@ from edge_vis.kit import (
     RuleTranslator,
     TranslatorContext,
     code_of,
-    follow_up_query,
     label,
+    list_bindings,
     number,
     setting,
 )
@@ -323,13 +330,20 @@ GLOBAL_WAYPOINT_DRIVER = MOBILITY + "GlobalWaypointDriver"
 LOCAL_WAYPOINT_DRIVER = MOBILITY + "LocalWaypointDriver"
 GLOBAL_SEGMENT_DRIVER = MOBILITY + "GlobalPathSegmentDriver"
 LOCAL_SEGMENT_DRIVER = MOBILITY + "LocalPathSegmentDriver"
-#: the drivers whose List Manager holds a plan the relay reads back
+#: the drivers whose List Manager holds a plan the relay loads and reads back
 LIST_DRIVERS = (GLOBAL_LIST_DRIVER, LOCAL_LIST_DRIVER, GLOBAL_SEGMENT_DRIVER,
                 LOCAL_SEGMENT_DRIVER)
-#: waypoints per SetElement: keeps each one inside a single JUDP packet
-ELEMENTS_PER_SET = 50
-#: UID that DeleteElement reads as "every element"
-ALL_ELEMENTS = 0xFFFF
+#: the same, declared for the kit's list mechanism (ExecuteList of the mobility set)
+DRIVERS = {
+    GLOBAL_LIST_DRIVER: ListDriver(GLOBAL_LIST_DRIVER, "mobility", ("SetGlobalWaypoint",),
+                                   "waypoint"),
+    LOCAL_LIST_DRIVER: ListDriver(LOCAL_LIST_DRIVER, "mobility", ("SetLocalWaypoint",),
+                                  "waypoint"),
+    GLOBAL_SEGMENT_DRIVER: ListDriver(GLOBAL_SEGMENT_DRIVER, "mobility",
+                                      ("SetGlobalPathSegment",), "waypoint"),
+    LOCAL_SEGMENT_DRIVER: ListDriver(LOCAL_SEGMENT_DRIVER, "mobility",
+                                     ("SetLocalPathSegment",), "waypoint"),
+}
 #: metres that count as "reached" for single-waypoint drivers when the plan says 0
 DEFAULT_TOLERANCE = 2.0
 #: ExecuteList speed when the plan says 0 and the vehicle never reported a travel speed
@@ -338,10 +352,10 @@ _EARTH_RADIUS = 6_371_000.0
 MISSION_MESSAGES = ("ConfirmElementRequest", "RejectElementRequest", "ReportActiveElement",
                     "ReportTravelSpeed")
 MISSION_REPORTS = tuple(
-    ReportSpec(report, query, service, rate=1.0, on_change=True)
-    for service in LIST_DRIVERS
-    for report, query in (("ReportActiveElement", "QueryActiveElement"),
-                          ("ReportTravelSpeed", "QueryTravelSpeed"))
+    spec for driver in DRIVERS.values()
+    for spec in (driver.progress(),
+                 ReportSpec("ReportTravelSpeed", "QueryTravelSpeed", driver.service, rate=1.0,
+                            on_change=True))
 )
 
 
@@ -359,9 +373,6 @@ class _Mission:
     #: the JAUS message each list element carries, and its fields per element
     element: str = ""
     element_fields: list[dict[str, float]] = field(default_factory=list)
-    steps: list[tuple[str, dict[str, Any]]] = field(default_factory=list)
-    request_id: int | None = None
-    pending: str = ""
     active: int = -1
     state: str = "PENDING"
     travel_speed: float = math.nan
@@ -407,17 +418,18 @@ def segment_fields(seg: Mapping[str, Any], local: bool) -> dict[str, float]:
 class WaypointMissions:
     """WaypointPlan -> List Manager sequence (or single waypoints) -> MissionStatus.
 
-    With a waypoint *list* driver the plan goes out as DeleteElement (every element),
-    then SetElement batches of Set{Global,Local}Waypoint elements linked previous/next,
-    each sent only after the vehicle confirmed the previous request, then ExecuteList
-    with the speed. With only a waypoint driver the waypoints go out one at a time: the
-    next when the reported pose comes within the waypoint's tolerance. Every step is a
-    :class:`Command` (control-gated and throttled by the engine, kind ``waypoint``).
+    With a waypoint *list* driver the plan is loaded by the kit's list mechanism
+    (:class:`~edge_vis.kit.lists.ListLoader`: DeleteElement, SetElement batches of
+    Set{Global,Local}Waypoint elements, each after the previous was confirmed, then
+    ExecuteList with the speed). With only a waypoint driver the waypoints go out one at
+    a time: the next when the reported pose comes within the waypoint's tolerance. Every
+    step is a :class:`Command` (control-gated and throttled by the engine, kind
+    ``waypoint``).
     """
 
     def __init__(self) -> None:
         self.missions: dict[str, _Mission] = {}
-        self._request_id = 0
+        self.lists = ListLoader()
 
     def on_plan(self, sample: Mapping[str, Any], ctx: TranslatorContext) -> list[Action]:
         vehicle = ctx.vehicle
@@ -437,14 +449,15 @@ class WaypointMissions:
         mission.element_fields = [waypoint_fields(w, local) for w in waypoints]
         if list_driver not in services:
             mission.service, mission.listed = single_driver, False
+        self.lists.loads.pop(vehicle.vehicle_id, None)  # a new plan replaces any load
         if not waypoints or mission.service not in services:
             mission.state = "FAILED"
             self.missions[vehicle.vehicle_id] = mission
             return [self._status(vehicle.vehicle_id, ctx)]
         self.missions[vehicle.vehicle_id] = mission
         if mission.listed:
-            mission.steps = self._list_steps(mission, ctx.catalogue)
-            return [self._next_step(vehicle.vehicle_id), self._status(vehicle.vehicle_id, ctx)]
+            return [self._load(mission, vehicle.vehicle_id, ctx),
+                    self._status(vehicle.vehicle_id, ctx)]
         mission.active, mission.state = 0, "EXECUTING"
         # a waypoint driver drives at its travel speed: set it first (its own throttle
         # slot, so it is not coalesced away by the waypoint)
@@ -470,11 +483,12 @@ class WaypointMissions:
                            [segment_fields(seg, local) for seg in segments],
                            travel_speed=old.travel_speed if old else math.nan)
         self.missions[vehicle.vehicle_id] = mission
+        self.lists.loads.pop(vehicle.vehicle_id, None)  # a new plan replaces any load
         if not segments or service not in {uri for uri, _ in vehicle.services}:
             mission.state = "FAILED"
             return [self._status(vehicle.vehicle_id, ctx)]
-        mission.steps = self._list_steps(mission, ctx.catalogue)
-        return [self._next_step(vehicle.vehicle_id), self._status(vehicle.vehicle_id, ctx)]
+        return [self._load(mission, vehicle.vehicle_id, ctx),
+                self._status(vehicle.vehicle_id, ctx)]
 
     @staticmethod
     def _speed(mission: _Mission) -> float:
@@ -495,15 +509,17 @@ class WaypointMissions:
             return [self._status(vehicle_id, ctx)]
         if mission is None:
             return []
-        if name in ("ConfirmElementRequest", "RejectElementRequest"):
-            if fields.get("request_id") != mission.request_id or mission.request_id is None:
+        if name in LIST_REPLIES:
+            steps = self.lists.on_reply(vehicle_id, name, fields)
+            if steps is None:
                 return []
-            mission.request_id = None
-            # an empty list may refuse "delete everything": nothing to delete is fine
-            if name == "RejectElementRequest" and mission.pending != "DeleteElement":
+            load = self.lists.loads[vehicle_id]
+            if load.state == "FAILED":
                 mission.state = "FAILED"
                 return [self._status(vehicle_id, ctx)]
-            actions: list[Action] = [self._next_step(vehicle_id)]
+            if load.state == "EXECUTING":
+                mission.state = "EXECUTING"
+            actions: list[Action] = list(steps)
             if mission.state != "PENDING":
                 actions.append(self._status(vehicle_id, ctx))
             return actions
@@ -537,41 +553,17 @@ class WaypointMissions:
 
     # -- steps ---------------------------------------------------------------------------
 
-    @staticmethod
-    def _list_steps(mission: _Mission, catalogue: Any) -> list[tuple[str, dict[str, Any]]]:
-        """The List Manager steps of a plan; each waypoint is encoded with the relay's
-        catalogue (the context's), so a profile's own JSIDL definitions apply."""
-        steps: list[tuple[str, dict[str, Any]]] = [
-            ("DeleteElement", {"delete_element_list": [{"element_uid": ALL_ELEMENTS}]})]
-        count = len(mission.waypoints)
-        for start in range(0, count, ELEMENTS_PER_SET):
-            batch = range(start, min(count, start + ELEMENTS_PER_SET))
-            elements = [{
-                "element_uid": i + 1,
-                "previous_uid": i,  # 0 before the first
-                "next_uid": i + 2 if i + 1 < batch.stop else 0,
-                "element_data": {"format": 0, "data": catalogue.encode(
-                    mission.element, mission.element_fields[i])},
-            } for i in batch]
-            steps.append(("SetElement", {"element_list": elements}))
-        return steps
+    def _load(self, mission: _Mission, vehicle_id: str, ctx: TranslatorContext) -> Command:
+        """Start loading the plan into its list driver (the kit's list mechanism); the
+        elements are encoded with the context's catalogue, so a profile's JSIDL applies.
+        ExecuteList takes the speed when the list is complete (a travel speed reported
+        meanwhile counts)."""
+        def execute() -> dict[str, Any]:
+            return {"speed": _clamp(self._speed(mission), 0.0, 327.67), "element_uid": 1}
 
-    def _next_step(self, vehicle_id: str) -> Command:
-        mission = self.missions[vehicle_id]
-        if mission.steps:
-            name, fields = mission.steps.pop(0)
-            mission.pending = name
-            self._request_id = (self._request_id + 1) % 256
-            mission.request_id = self._request_id
-            fields = {"request_id_rec": {"request_id": mission.request_id}, **fields}
-        else:
-            name, fields = "ExecuteList", {"speed": _clamp(self._speed(mission), 0.0, 327.67),
-                                           "element_uid": 1}
-            mission.state = "EXECUTING"
-        # ExecuteList is also a manipulator message: encode mobility's
-        return Command(vehicle_id, mission.operator_id, "waypoint", name, fields,
-                       mission.service,
-                       service_set="mobility" if name == "ExecuteList" else None)
+        return self.lists.load(vehicle_id, vehicle_id, mission.operator_id,
+                               DRIVERS[mission.service], mission.element,
+                               mission.element_fields, ctx.catalogue, execute)
 
     def _waypoint(self, vehicle_id: str, index: int) -> Command:
         mission = self.missions[vehicle_id]
@@ -605,9 +597,8 @@ def _distance(target: Mapping[str, Any], pose: Mapping[str, Any], local: bool) -
 
 # -- plan read-back (List Manager reports, drivers' current target -> VehiclePlan) -------
 
-#: element queries one component has outstanding at a time: a long list is read in
-#: batches, each asked for when the previous answers arrive, so it never floods a radio
-PLAN_QUERIES_IN_FLIGHT = 8
+#: element queries one component has outstanding at a time (the kit's list read-back)
+PLAN_QUERIES_IN_FLIGHT = QUERIES_IN_FLIGHT
 #: presence vectors asking for every field of Report{Global,Local}Waypoint and
 #: Report{Global,Local}PathSegment
 ALL_WAYPOINT = 0x3F
@@ -623,8 +614,7 @@ _CURRENT_TARGETS = (
     ("ReportLocalPathSegment", "QueryLocalPathSegment", LOCAL_SEGMENT_DRIVER, ALL_SEGMENT),
 )
 PLAN_REPORTS = (
-    *(ReportSpec("ReportElementList", "QueryElementList", service, rate=0.5, on_change=True)
-      for service in LIST_DRIVERS),
+    *(driver.read_back() for driver in DRIVERS.values()),
     *(ReportSpec(report, query, service, {"presence_vector": pv}, rate=0.5, on_change=True)
       for report, query, service, pv in _CURRENT_TARGETS),
 )
@@ -666,19 +656,24 @@ def plan_element(message: str, fields: Mapping[str, Any], uid: int = 0, previous
     return element
 
 
-@dataclass
-class _HeldPlan:
-    """What the relay knows of one component's list and current target."""
-
-    count: int = -1
-    order: list[int] = field(default_factory=list)
-    elements: dict[int, dict[str, Any]] = field(default_factory=dict)
-    asking: set[int] = field(default_factory=set)
-    stale: set[int] = field(default_factory=set)
-    current: dict[str, Any] = field(default_factory=dict)
+def _held_element(message: str, fields: Mapping[str, Any], uid: int, previous: int,
+                  following: int) -> dict[str, Any]:
+    """A list element read back: a ``PlanElement`` named after its decoded message."""
+    element = plan_element(message, fields, uid, previous, following)
+    element["message"] = message
+    return element
 
 
-class PlanReadBack:
+def _vehicle_plan(vehicle_id: str, component: JausAddress, held: HeldList,
+                  ctx: TranslatorContext) -> Publish:
+    """``VehiclePlan``: the plan one component holds, as read back so far."""
+    return Publish("VehiclePlan", {
+        "vehicle_id": vehicle_id, "component": str(component), "element_count": held.count,
+        "elements": held.listed(), "complete": held.complete(),
+        "current": held.current or plan_element("", {}), "timestamp_ms": ctx.timestamp_ms})
+
+
+def plan_read_back() -> ListReadBack:
     """The plan each component of a vehicle holds, read back from it -> ``VehiclePlan``.
 
     The engine keeps ReportElementList flowing from every waypoint list and path segment
@@ -687,103 +682,10 @@ class PlanReadBack:
     element with QueryElement, at most :data:`PLAN_QUERIES_IN_FLIGHT` at a time per
     component; an element the list no longer holds is dropped. After the relay's own
     plan was confirmed, and when an operator asks (``PlanQuery``), every element is read
-    again, so an element replaced under the same UID is seen too.
+    again, so an element replaced under the same UID is seen too. The kit's list
+    read-back (:class:`~edge_vis.kit.lists.ListReadBack`) does the reading.
     """
-
-    def __init__(self) -> None:
-        self.plans: dict[tuple[str, JausAddress], _HeldPlan] = {}
-
-    def on_message(self, name: str, fields: Mapping[str, Any],
-                   ctx: TranslatorContext) -> list[Action]:
-        if ctx.vehicle is None or ctx.source is None:
-            return []
-        key = (ctx.vehicle.vehicle_id, ctx.source)
-        plan = self.plans.setdefault(key, _HeldPlan())
-        actions: list[Action] = []
-        if name == "ReportElementList":
-            order = [int(e.get("element_uid", 0)) for e in fields.get("element_list") or ()]
-            plan.order, plan.count = order, len(order)
-            plan.elements = {u: e for u, e in plan.elements.items()
-                             if u in order and u not in plan.stale}
-            plan.stale.clear()
-            plan.asking.clear()
-        elif name == "ReportElement":
-            uid = int(fields.get("element_uid", 0))
-            plan.asking.discard(uid)
-            if uid not in plan.order:
-                return []  # an answer for an element removed meanwhile
-            plan.elements[uid] = self._element(fields, ctx.catalogue)
-        elif name == "ReportElementCount":
-            plan.count = int(fields.get("element_count", 0))
-            if plan.count != len(plan.order):
-                actions.append(follow_up_query(ctx.source, "QueryElementList"))
-        else:
-            plan.current = plan_element(name, fields)
-        actions += self._ask(ctx.source, plan)
-        actions.append(self._publish(key, plan, ctx))
-        return actions
-
-    def refresh(self, vehicle_id: str, component: JausAddress) -> list[Action]:
-        """Read ``component``'s whole list again (its elements may have been replaced)."""
-        plan = self.plans.setdefault((vehicle_id, component), _HeldPlan())
-        plan.stale = set(plan.elements)
-        return [follow_up_query(component, "QueryElementList")]
-
-    def on_query(self, sample: Mapping[str, Any], ctx: TranslatorContext) -> list[Action]:
-        """``PlanQuery``: count and list of every list driver, through the engine (the
-        operator holding the vehicle; throttled), every element read again."""
-        vehicle = ctx.vehicle
-        if vehicle is None:
-            return []
-        actions: list[Action] = []
-        operator = str(sample.get("operator_id", ""))
-        for service in LIST_DRIVERS:
-            for address, services in vehicle.components.items():
-                if any(uri == service for uri, _ in services):
-                    plan = self.plans.setdefault((vehicle.vehicle_id, address), _HeldPlan())
-                    plan.stale = set(plan.elements)
-                    for query in ("QueryElementCount", "QueryElementList"):
-                        actions.append(Command(vehicle.vehicle_id, operator,
-                                               f"plan_{query}_{address}", query, {}, service,
-                                               component=address))
-        return actions
-
-    @staticmethod
-    def _element(fields: Mapping[str, Any], catalogue: Any) -> dict[str, Any]:
-        uid = int(fields.get("element_uid", 0))
-        links = (uid, int(fields.get("previous_uid", 0)), int(fields.get("next_uid", 0)))
-        data = fields.get("element_data") or {}
-        message, inner = "", {}
-        if data.get("format") == 0 and catalogue is not None:
-            try:
-                decoded = catalogue.decode(bytes(data.get("data") or b""))
-            except DecodeError:  # the element is shown without its content
-                decoded = None
-            if decoded is not None and decoded.name is not None:
-                message, inner = decoded.name, decoded.fields or {}
-        element = plan_element(message, inner, *links)
-        element["message"] = message
-        return element
-
-    @staticmethod
-    def _ask(component: JausAddress, plan: _HeldPlan) -> list[Action]:
-        missing = [u for u in plan.order if u not in plan.elements and u not in plan.asking]
-        room = PLAN_QUERIES_IN_FLIGHT - len(plan.asking)
-        out: list[Action] = []
-        for uid in missing[:max(0, room)]:
-            plan.asking.add(uid)
-            out.append(follow_up_query(component, "QueryElement", {"element_uid": uid}))
-        return out
-
-    @staticmethod
-    def _publish(key: tuple[str, JausAddress], plan: _HeldPlan,
-                 ctx: TranslatorContext) -> Publish:
-        elements = [plan.elements[u] for u in plan.order if u in plan.elements]
-        return Publish("VehiclePlan", {
-            "vehicle_id": key[0], "component": str(key[1]), "element_count": plan.count,
-            "elements": elements,
-            "complete": len(elements) == len(plan.order) and plan.count == len(plan.order),
-            "current": plan.current or plan_element("", {}), "timestamp_ms": ctx.timestamp_ms})
+    return ListReadBack(tuple(DRIVERS.values()), _held_element, _vehicle_plan)
 
 
 class MobilityTranslator(RuleTranslator):
@@ -807,6 +709,9 @@ class MobilityTranslator(RuleTranslator):
         cls.reports = (*(s for s in cls.reports if s.report not in OPTIONAL_REPORTS),
                        *MISSION_REPORTS, *PLAN_REPORTS)
         cls.subscribes = (*cls.subscribes, "WaypointPlan", "PathSegmentPlan", "PlanQuery")
+        # the List Manager's messages from its list drivers only, and mobility's
+        # ReportActiveElement (the manipulator's list drivers have their own, 0x461E)
+        cls.bindings = {**cls.bindings, **list_bindings(tuple(DRIVERS.values()))}
         # Holding a vehicle means holding every component that can move it, waypoint
         # list drivers included, so nothing else drives it meanwhile.
         cls.controlled_services = tuple(dict.fromkeys((
@@ -817,7 +722,7 @@ class MobilityTranslator(RuleTranslator):
     def __init__(self) -> None:
         super().__init__()
         self.missions = WaypointMissions()
-        self.plans = PlanReadBack()
+        self.plans = plan_read_back()
 
     def apply_options(self, options: MobilityOptions) -> None:
         """Ask for the optional reports the profile lists, too."""
@@ -833,8 +738,10 @@ class MobilityTranslator(RuleTranslator):
     ) -> list[Action]:
         if ctx.vehicle is None:
             return []
-        if name in PLAN_MESSAGES:
-            return self.plans.on_message(name, fields, ctx)
+        if name in LIST_REPORTS:
+            return self.plans.on_report(name, fields, ctx)
+        if name in PLAN_MESSAGES:  # a driver's current target
+            return self.plans.on_current(plan_element(name, fields), ctx)
         if name in MISSION_MESSAGES:
             actions = self.missions.on_message(name, fields, ctx)
             if ctx.source is not None and any(

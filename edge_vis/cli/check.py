@@ -108,7 +108,9 @@ def check_deployment(path: Path, data: Mapping[str, Any]) -> str:
     security = profile.dds.security
     if security is not None:
         problems.extend((str(path), key, problem)
-                        for key, problem in security_problems(security))
+                        for key, problem in security_problems(
+                            security, domain=profile.dds.domain,
+                            partitions=profile.dds.partitions))
         if profile.operators.any_operator:
             problems.append((str(path), "access.any_operator", "with [dds.security] only "
                              "listed [[operators]] are authenticated: set it to false"))

@@ -119,7 +119,8 @@ def refuse_half_secured(profile: RelayProfile, *, dds: bool = True) -> None:
         return
     from edge_vis.tools.deployment_keys import security_problems  # openssl, when secured
 
-    problems = [(where, key, problem) for key, problem in security_problems(security)]
+    problems = [(where, key, problem) for key, problem in security_problems(
+        security, domain=profile.dds.domain, partitions=profile.dds.partitions)]
     if profile.operators.any_operator:
         problems.append((where, "access.any_operator", "with [dds.security] only listed "
                          "[[operators]] are authenticated: set it to false"))

@@ -30,6 +30,7 @@ from edge_vis.config.deployment import (
     LinkProfile,
     OperatorEntry,
     RelayProfile,
+    ServingProfile,
     TimeProfile,
     TranslatorSelection,
 )
@@ -54,7 +55,8 @@ __all__ = [
     "DiscoveryProfile",
     "EmergencyProfile",
     "EventsProfile", "LimitsProfile", "LinkProfile", "OperatorEntry", "OperatorPolicy",
-    "RelayProfile", "ReportRate", "ServiceProfile", "TimeProfile", "TranslatorSelection",
+    "RelayProfile", "ReportRate", "ServiceProfile", "ServingProfile", "TimeProfile",
+    "TranslatorSelection",
     "VehicleProfile",
     "default_profile_path", "from_mapping", "link_problems", "load_default_profile",
     "load_profile", "load_vehicle_profile", "read_deployment", "read_profile_file", "read_toml",

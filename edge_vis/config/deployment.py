@@ -10,6 +10,7 @@ setting's type, default, range and TOML key is written here once. The file layou
     [links.NAME]     url, bandwidth, options, profile   -> LinkProfile (+ LinkSpec keys)
     [dds]            domain, partitions                 -> DdsProfile
     [dds.security]   identity_ca, certificate, ...      -> DdsSecurityProfile
+    [serving]        relay_name, preference, prefer, hysteresis, heartbeat, lease, settle
     [translators]    enabled, disabled, [translators.NAME] tables -> TranslatorSelection
     [discovery] [control] [events] [commands] [emergency] [limits] [bulk]
     [report_rates]   Report = Hz or {desired, minimum, priority} (edge_vis.config.report_rates)
@@ -264,6 +265,28 @@ class DdsProfile:
 
 
 @dataclass(frozen=True, slots=True)
+class ServingProfile:
+    """``[serving]``: how relays on one DDS domain share the vehicles they reach.
+
+    Every relay publishes ``RelayStatus`` every ``heartbeat`` seconds; a relay not heard
+    for ``lease`` seconds is gone and its vehicles are taken over. ``relay_name`` names
+    this relay on the data model (default: its JAUS id). ``preference`` is added to this
+    relay's link quality (0..1) for every vehicle, and 1 more for the vehicles listed in
+    ``prefer``: the best score serves, and a serving relay keeps a vehicle until another
+    scores more than ``hysteresis`` above it. ``settle``: how long a relay's claim is out
+    before it takes a vehicle nobody serves (its peers must have seen the claim).
+    """
+
+    relay_name: str = ""
+    preference: float = setting(0.0, ge=0)
+    prefer: tuple[str, ...] = ()
+    hysteresis: float = setting(0.25, ge=0)
+    heartbeat: float = setting(0.25, gt=0, unit="s")
+    lease: float = setting(1.5, gt=0, unit="s")
+    settle: float = setting(0.5, ge=0, unit="s")
+
+
+@dataclass(frozen=True, slots=True)
 class LimitsProfile:
     """Bounds on tables that grow with what the network sends (``[limits]``).
 
@@ -375,6 +398,12 @@ class RelayProfile:
     operators: OperatorPolicy = setting(factory=OperatorPolicy.open, custom=True)
     limits: LimitsProfile = field(default_factory=LimitsProfile)
     bulk: BulkProfile | None = None
+    serving: ServingProfile = field(default_factory=ServingProfile)
+
+    @property
+    def relay_name(self) -> str:
+        """This relay's name on the data model: ``[serving] relay_name`` or its JAUS id."""
+        return self.serving.relay_name or str(self.jaus_id)
 
     def vehicle_by_subsystem(self, subsystem: int) -> VehicleProfile | None:
         """The vehicle profile claiming JAUS ``subsystem``, if any."""

@@ -223,6 +223,9 @@ class DdsBridge:
         }
         self.max_products = max_products
         self._products: dict[str, dict[tuple[Any, ...], None]] = {}
+        #: vehicle id -> (topic, key values) of the instances written for it (withdraw)
+        self._instances: dict[str, set[tuple[str, tuple[Any, ...]]]] = {}
+        self._key_names: dict[str, tuple[str, ...]] = {}
         self._in_flight = threading.Semaphore(MAX_IN_FLIGHT)
         #: publication handle -> operator_id of the commands it wrote (watch_writers)
         self._writers_of: dict[int, str] = {}
@@ -291,6 +294,27 @@ class DdsBridge:
         spec = self.registry.get(topic)
         if spec.kind in _RETIRED_KINDS:
             self._retire_old(spec, sample)
+        vehicle_id = sample.get("vehicle_id")
+        if vehicle_id:
+            names = self._key_names.get(topic)
+            if names is None:
+                names = self._key_names[topic] = key_members(spec.type)
+            self._instances.setdefault(str(vehicle_id), set()).add(
+                (topic, tuple(sample.get(k) for k in names)))
+
+    def withdraw(self, vehicle_id: str) -> int:
+        """Unregister every instance this participant wrote for ``vehicle_id``: another
+        relay writes them now, so readers see one writer per instance and late joiners
+        do not get this relay's last state. Returns how many were unregistered."""
+        done = 0
+        for topic, key in sorted(self._instances.pop(vehicle_id, set()), key=repr):
+            try:
+                self.unregister(topic, dict(zip(self._key_names[topic], key, strict=True)))
+                done += 1
+            except EdgeVisError as exc:
+                log.warning("cannot withdraw %s %s: %s", topic, key, exc)
+        self.counters["withdrawn"] = self.counters.get("withdrawn", 0) + done
+        return done
 
     def _retire_old(self, spec: TopicSpec, sample: Mapping[str, Any]) -> None:
         """Bound the instances of a product topic: dispose the oldest past ``max_products``."""
@@ -617,11 +641,18 @@ class TopicReader:
         if depth is not None:
             qos = Qos(Policy.History.KeepLast(depth), base=qos)
         topic = bridge._topic(spec.name)
-        self._reader: DataReader[Any] = DataReader(bridge._subscriber, topic, qos=qos)
+        self._matches = match_listener()
+        self._reader: DataReader[Any] = DataReader(bridge._subscriber, topic, qos=qos,
+                                                   listener=self._matches)
         self._condition = ReadCondition(self._reader, _ANY_SAMPLE)
         self._waitset = WaitSet(bridge._participant)
         self._waitset.attach(self._condition)
         self._closed = False
+
+    def matched_writers(self) -> int:
+        """How many writers (local or remote) currently match this reader: a reader of a
+        volatile topic waits for its writer before that one writes."""
+        return len(matched_publications(self._reader, self._matches))
 
     def wait(self, timeout: float) -> bool:
         """Block up to ``timeout`` seconds for a sample; True if one is there."""

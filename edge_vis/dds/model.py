@@ -223,6 +223,8 @@ class VehicleStatus(IdlStruct, typename="edge_vis::VehicleStatus"):
     #: the operator who set it through the relay ("" when set by another JAUS client)
     emergency_operator: str = ""
     emergency_reason: str = ""
+    #: the relay serving the vehicle (its ``RelayStatus.relay``)
+    relay: str = ""
 
 
 @dataclass
@@ -284,12 +286,15 @@ class MissionStatus(IdlStruct, typename="edge_vis::MissionStatus"):
 
 @dataclass
 class LinkStatus(IdlStruct, typename="edge_vis::LinkStatus"):
-    """Load of one radio link; ``vehicle_id`` is empty for a link shared by many vehicles."""
+    """Load of one radio link of one relay; ``vehicle_id`` is empty for a link shared by
+    many vehicles."""
 
     link: str
     key("link")
     vehicle_id: str = ""
     key("vehicle_id")
+    relay: str = ""
+    key("relay")
     up: bool = False
     budget_bps: float64 = 0.0
     measured_bps: float64 = 0.0
@@ -299,6 +304,48 @@ class LinkStatus(IdlStruct, typename="edge_vis::LinkStatus"):
     bytes_out: uint64 = 0
     messages_in: uint64 = 0
     messages_out: uint64 = 0
+    timestamp_ms: int64 = 0
+
+
+# -- relays sharing a domain (edge_vis.engine.duty) ---------------------------------------
+
+
+@dataclass
+class RelayLink(IdlStruct, typename="edge_vis::RelayLink"):
+    """One link of a relay and whether it is open."""
+
+    link: str = ""
+    up: bool = False
+
+
+@dataclass
+class RelayVehicle(IdlStruct, typename="edge_vis::RelayVehicle"):
+    """A vehicle a relay reaches: over which link, how well (``quality`` 0..1, the share of
+    liveness periods it was heard in; ``score`` adds the profile preference), whether this
+    relay serves it and, if so, for which operator it holds it."""
+
+    vehicle_id: str = ""
+    link: str = ""
+    quality: float64 = 0.0
+    score: float64 = 0.0
+    serving: bool = False
+    operator_id: str = ""
+    authority: uint8 = 0
+
+
+@dataclass
+class RelayStatus(IdlStruct, typename="edge_vis::RelayStatus"):
+    """One relay on the domain: its links and the vehicles it reaches and serves, every
+    ``heartbeat_ms``; ``leaving`` when it stops. Relays decide from these which one
+    serves each vehicle."""
+
+    relay: str
+    key("relay")
+    jaus_id: str = ""
+    links: sequence[RelayLink] = field(default_factory=list)
+    vehicles: sequence[RelayVehicle] = field(default_factory=list)
+    leaving: bool = False
+    heartbeat_ms: uint32 = 0
     timestamp_ms: int64 = 0
 
 
@@ -1098,6 +1145,83 @@ class EndEffectorCommand(IdlStruct, typename="edge_vis::EndEffectorCommand"):
     effort: float64 = 0.0
 
 
+# -- the manipulator's List Manager: plans of joint positions or end-effector poses -------
+
+
+@dataclass
+class ManipulatorTarget(IdlStruct, typename="edge_vis::ManipulatorTarget"):
+    """One target of a manipulator plan: joint positions (``values``, rad, or m where
+    ``units[i]`` is "m") or an end-effector pose (m, unit quaternion)."""
+
+    values: sequence[float64] = field(default_factory=list)
+    units: sequence[str] = field(default_factory=list)
+    x: float64 = 0.0
+    y: float64 = 0.0
+    z: float64 = 0.0
+    qw: float64 = 1.0
+    qx: float64 = 0.0
+    qy: float64 = 0.0
+    qz: float64 = 0.0
+
+
+@dataclass
+class ManipulatorPlan(IdlStruct, typename="edge_vis::ManipulatorPlan"):
+    """Targets for a manipulator to go through in order: loaded into its joint-position
+    (``mode`` joint_positions) or end-effector-pose (end_effector_pose) list driver, then
+    executed."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    operator_id: str
+    plan_id: str
+    targets: sequence[ManipulatorTarget]
+    mode: str = "joint_positions"
+
+
+@dataclass
+class ManipulatorPlanStatus(IdlStruct, typename="edge_vis::ManipulatorPlanStatus"):
+    """Progress of the manipulator plan: ``active_target`` is -1 when none; ``reason`` says
+    why it FAILED."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    plan_id: str = ""
+    mode: str = ""
+    active_target: int32 = -1
+    target_count: int32 = 0
+    state: MissionState = MissionState.MISSION_IDLE
+    reason: str = ""
+    timestamp_ms: int64 = 0
+
+
+@dataclass
+class ManipulatorListElement(IdlStruct, typename="edge_vis::ManipulatorListElement"):
+    """One element a manipulator's list holds: ``message`` (SetJointPositions,
+    SetEndEffectorPose; "" when not one the relay knows) and its target (NaN where the
+    message does not set it)."""
+
+    uid: uint16 = 0
+    previous_uid: uint16 = 0
+    next_uid: uint16 = 0
+    message: str = ""
+    target: ManipulatorTarget = field(default_factory=ManipulatorTarget)
+
+
+@dataclass
+class ManipulatorList(IdlStruct, typename="edge_vis::ManipulatorList"):
+    """The list one manipulator component holds, read back from its List Manager
+    (``complete`` once every listed element was read)."""
+
+    vehicle_id: str
+    key("vehicle_id")
+    component: str
+    key("component")
+    element_count: int32 = -1
+    elements: sequence[ManipulatorListElement] = field(default_factory=list)
+    complete: bool = False
+    timestamp_ms: int64 = 0
+
+
 @dataclass
 class DeviceCommand(IdlStruct, typename="edge_vis::DeviceCommand"):
     """Set a simple vehicle device: parking_brake (value percent), illumination (state: the
@@ -1560,6 +1684,7 @@ STRUCTS: tuple[type[IdlStruct], ...] = (
     SpoolerStatus,
     SpoolerMissions,
     LinkStatus,
+    RelayStatus,
     HealthStatus,
     RangeScan,
     SensorInfo,
@@ -1586,6 +1711,9 @@ STRUCTS: tuple[type[IdlStruct], ...] = (
     GenericReport,
     JointCommand,
     EndEffectorCommand,
+    ManipulatorPlan,
+    ManipulatorPlanStatus,
+    ManipulatorList,
     DeviceCommand,
     PlatformCommand,
     HandoffRequest,

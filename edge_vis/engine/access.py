@@ -51,7 +51,8 @@ class Access:
         """Want control while an operator holds the online, known vehicle (and of the
         components of the relay's own errands); release the rest."""
         state = self._state
-        usable = vehicle.online and vehicle.services_known and not state.shutting_down
+        usable = (vehicle.online and vehicle.services_known and not state.shutting_down
+                  and state.serves(vehicle))
         operated = vehicle.arbitration.holder is not None and usable
         authority = self.authority(vehicle)
         commanded: set[JausAddress] = set()

@@ -35,6 +35,11 @@ class Commands:
         if vehicle is None:
             state.counters["commands_unknown_vehicle"] += 1
             return
+        if not state.serves(vehicle):  # the relay serving it sends it (edge_vis.engine.duty)
+            state.counters["commands_other_relay"] += 1
+            vehicle.not_sent_at.append(now)  # told if this relay takes over (duty)
+            del vehicle.not_sent_at[:-64]
+            return
         state.touch(vehicle)
         arb = vehicle.arbitration
         reason = ""

@@ -175,6 +175,10 @@ class ComponentControl:
         if not self.timeout_asked:
             self.timeout_asked = True
             out.append(Outgoing("QueryTimeout", {}))
+        if first and self.status == READY:
+            # READY seen before we held control was another controller's: Management is
+            # READY only under a controller, so our control starts in STANDBY
+            self.status = None
         if first and self.managed and not self.errand and not self.hold_standby:
             self.ready_attempts = 0
             out.extend(self._drive_ready(now))

@@ -53,6 +53,7 @@ from edge_vis.engine.announcements import Announcements
 from edge_vis.engine.clocks import Clocks
 from edge_vis.engine.commands import Commands
 from edge_vis.engine.control_requests import ControlRequests
+from edge_vis.engine.duty import Duty
 from edge_vis.engine.estop import EmergencyStops
 from edge_vis.engine.finder import Finder
 from edge_vis.engine.handoff_requests import TOPICS as HANDOFF_TOPICS
@@ -61,7 +62,7 @@ from edge_vis.engine.holders import Holders
 from edge_vis.engine.liveness import LIVENESS, MANAGEMENT, STATUS_EVERY, Liveness
 from edge_vis.engine.manager import TranslationManager
 from edge_vis.engine.rates import Rates
-from edge_vis.engine.reports import Reports
+from edge_vis.engine.reports import Reports, set_of
 from edge_vis.engine.state import EngineState, Handler, InnerCodec
 from edge_vis.engine.timer_pass import TimerPass
 from edge_vis.engine.vehicle import Vehicle
@@ -101,6 +102,7 @@ class Engine:
         catalogue: InnerCodec | None = None,
         wall_offset: float = 0.0,
         planner: FleetPlanner | None = None,
+        arbitrate: bool = False,
     ) -> None:
         if isinstance(translators, TranslationManager):
             self.manager = translators
@@ -109,6 +111,7 @@ class Engine:
         else:
             self.manager = TranslationManager.from_selection(profile.translators)
         self._state = state = EngineState(profile, catalogue, wall_offset, planner)
+        state.arbitrated = arbitrate
         self._views = Views(state)
         self._rates = Rates(state, self.manager)
         self._access = Access(state, self.manager.controlled_services(), self._changed)
@@ -122,10 +125,13 @@ class Engine:
         self._holders = Holders(state, self._changed)
         self._handoffs = HandoffRequests(state, self._access, self._changed)
         self._clocks = Clocks(state, self._access, self._changed)
+        self._duty = Duty(state, self._access, self._reports, self._liveness.setup,
+                          self._changed)
         self._timer_pass = TimerPass(state, self._finder, self._liveness, self._access,
                                     self._reports, self._commands, self._rates, self._estop,
                                     (self._holders.poll, self._clocks.poll,
-                                     self._handoffs.poll))
+                                     self._handoffs.poll),
+                                    duty=self._duty if arbitrate else None)
         #: the JAUS messages the engine itself handles, by name
         self._handlers: dict[str, Handler] = {
             "ReportServices": self._finder.on_services,
@@ -231,7 +237,7 @@ class Engine:
         if vehicle is None:
             # a custom hello: a translator may declare the vehicle from it
             if self.manager.handles(name):
-                ctx = self._views.context(None, now, source)
+                ctx = self._views.context(None, now, source, set_of(message))
                 self._apply(self.manager.on_message(name, fields, ctx), now)
                 if source.subsystem in state.vehicles:
                     self._liveness.seen(state.vehicles[source.subsystem], now)
@@ -244,7 +250,7 @@ class Engine:
         if name == "Event":
             self._reports.on_event(vehicle, source, fields, now)
         else:
-            self._handle(vehicle, source, name, fields, now)
+            self._handle(vehicle, source, name, fields, now, set_of(message))
         self._timer_pass.run(now)
 
     def dialects_of(self, address: JausAddress) -> tuple[str, ...]:
@@ -274,6 +280,24 @@ class Engine:
             ctx = self._views.context(vehicle, now)
             self._apply(self.manager.on_sample(topic, sample, ctx), now)
         self._timer_pass.run(now)
+
+    def receive_relay_status(self, sample: Mapping[str, Any], now: float) -> None:
+        """A ``RelayStatus`` sample of a relay on the domain (this one's own included)
+        arrived at ``now``: who serves which vehicle is decided again
+        (:mod:`~edge_vis.engine.duty`)."""
+        state = self._state
+        if not self._finder.started:
+            self._finder.start(now)
+        if state.done or not state.arbitrated:
+            return
+        self._duty.start(now)
+        self._duty.on_status(sample, now)
+        self._timer_pass.run(now)
+
+    @property
+    def duty(self) -> Duty:
+        """Which vehicles this relay serves, and its peers (with ``arbitrate``)."""
+        return self._duty
 
     def refuse_sample(self, topic: str, sample: Mapping[str, Any], reason: str,
                       now: float) -> None:
@@ -323,6 +347,14 @@ class Engine:
         """Everything the engine wants done since the last call, in order."""
         state = self._state
         actions, state.actions = state.actions, []
+        if state.arbitrated:  # nothing is published for a vehicle another relay serves
+            by_id = state.by_id
+            kept = [a for a in actions if not isinstance(a, Publish)
+                    or (v := by_id.get(str(a.sample.get("vehicle_id", "")))) is None
+                    or v.serving]
+            if len(kept) != len(actions):
+                state.counters["samples_other_relay"] += len(actions) - len(kept)
+            return kept
         return actions
 
     def shutdown(self, now: float) -> None:
@@ -333,6 +365,8 @@ class Engine:
         """
         if not self._finder.started:
             self._finder.start(now)
+        if self._state.arbitrated and not self._state.shutting_down:
+            self._duty.shutdown(now)
         self._timer_pass.shutdown(now)
 
     @property
@@ -372,13 +406,14 @@ class Engine:
     # == routing between translators and the parts ========================================
 
     def _handle(self, vehicle: Vehicle, source: JausAddress, name: str,
-                fields: Mapping[str, Any], now: float) -> None:
-        """A message of a known vehicle: to the part that handles it, then to translators."""
+                fields: Mapping[str, Any], now: float, service_set: str = "") -> None:
+        """A message of a known vehicle: to the part that handles it, then to translators
+        (the one taking ``name`` of ``service_set`` from ``source``)."""
         handler = self._handlers.get(name)
         if handler is not None:
             handler(vehicle, source, fields, now)
         if self.manager.handles(name):
-            ctx = self._views.context(vehicle, now, source)
+            ctx = self._views.context(vehicle, now, source, service_set)
             self._apply(self.manager.on_message(name, fields, ctx), now)
 
     def _on_status(self, vehicle: Vehicle, source: JausAddress, fields: Mapping[str, Any],

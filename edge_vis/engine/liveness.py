@@ -57,8 +57,11 @@ class Liveness:
         self.setup(vehicle, now)
 
     def setup(self, vehicle: Vehicle, now: float) -> None:
-        """Subscriptions and control for an online vehicle whose services are known."""
-        if self._state.shutting_down or not vehicle.online or not vehicle.services_known:
+        """Subscriptions and control for an online vehicle whose services are known and
+        which this relay serves."""
+        state = self._state
+        if state.shutting_down or not vehicle.online or not vehicle.services_known \
+                or not state.serves(vehicle):
             return
         self._reports.setup(vehicle, now)
         self._access.update(vehicle, now)
@@ -70,6 +73,7 @@ class Liveness:
         log.warning("vehicle %s lost: silent for %.1f s", vehicle.vehicle_id,
                     now - (vehicle.last_seen or now))
         vehicle.online = False
+        vehicle.heard = vehicle.probes = 0
         vehicle.times_lost += 1
         vehicle.statuses.clear()
         vehicle.event_timeout_asked.clear()
@@ -89,6 +93,12 @@ class Liveness:
         # link's capacity belongs to the vehicles that answer
         state = self._state
         period = state.profile.discovery.liveness_period
+        if vehicle.online:  # one bit of link quality per period (edge_vis.engine.serving)
+            heard = vehicle.last_seen is not None and (
+                vehicle.last_probe_at is None or vehicle.last_seen > vehicle.last_probe_at)
+            vehicle.heard = ((vehicle.heard << 1) | int(heard)) & 0xFFFF
+            vehicle.probes += 1
+        vehicle.last_probe_at = now
         vehicle.next_liveness = now + (period if vehicle.online
                                        else max(period, state.profile.discovery.period))
         tick = int(now / period) if period > 0 else 0

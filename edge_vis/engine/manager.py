@@ -6,7 +6,10 @@ Reads package metadata and imports translator plugins when built with
 Every translator declares what it consumes and produces (see
 :mod:`edge_vis.kit.contract`). At start-up the manager checks that no JAUS message and no
 subscribed topic is claimed twice (each must go to exactly one translator), and raises
-:class:`~edge_vis.errors.PluginConflictError` naming both claimants otherwise. Several
+:class:`~edge_vis.errors.PluginConflictError` naming both claimants otherwise. A message is
+claimed by name and the translator's :class:`~edge_vis.kit.contract.Binding` for it (its
+message set, the services of its sender): two translators may take one name when their
+bindings cannot both match, and a message goes to the claim that matches it most closely. Several
 translators may *publish* one topic (still images and ATR images are both image
 products): a DDS topic has many writers, each keyed by its vehicle. The engine itself owns
 the ``ControlRequest``, ``HandoffRequest`` and ``HandoffResponse`` topics (operator
@@ -29,7 +32,7 @@ from edge_vis import plugins
 from edge_vis.config import TranslatorSelection
 from edge_vis.errors import ConfigError, PluginConflictError, PluginLoadError
 from edge_vis.kit.actions import Action, Dropped
-from edge_vis.kit.contract import ReportSpec, Translator, TranslatorContext
+from edge_vis.kit.contract import Binding, ReportSpec, Translator, TranslatorContext
 from edge_vis.routing.accounting import LogLimiter
 
 log = logging.getLogger(__name__)
@@ -45,6 +48,8 @@ class TranslationManager:
     def __init__(self, translators: Sequence[Translator]) -> None:
         self.translators = tuple(translators)
         self.by_message: dict[str, Translator] = {}
+        #: message name -> (binding, translator) of every claim of it
+        self.claims: dict[str, list[tuple[Binding, Translator]]] = {}
         self.by_topic: dict[str, Translator] = {}
         #: published topic -> the translators writing it (several may)
         self.publishers: dict[str, tuple[Translator, ...]] = {}
@@ -53,13 +58,18 @@ class TranslationManager:
         #: (translator name, reason) -> parts of messages it dropped (:class:`Dropped`)
         self.drops: Counter[tuple[str, str]] = Counter()
         self._log = LogLimiter(log)
-        claims_message: dict[str, str] = {}
         claims_sub: dict[str, str] = dict.fromkeys(ENGINE_SUBSCRIBES, ENGINE)
         for tr in self.translators:
             who = _name(tr)
             for message in tr.messages:
-                _claim(claims_message, message, who, "JAUS message")
-                self.by_message[message] = tr
+                binding = tr.bindings.get(message, Binding())
+                for other_binding, other in self.claims.get(message, ()):
+                    if other is not tr and binding.overlaps(other_binding):
+                        raise PluginConflictError(
+                            f"JAUS message {message!r} is claimed by both {_name(other)!r} "
+                            f"and {who!r}" + _bound(other_binding, binding))
+                self.claims.setdefault(message, []).append((binding, tr))
+                self.by_message.setdefault(message, tr)
             for spec in tr.reports:
                 if spec.report not in tr.messages:
                     raise PluginLoadError(
@@ -130,15 +140,19 @@ class TranslationManager:
 
     def on_message(self, name: str, fields: Mapping[str, Any],
                    ctx: TranslatorContext) -> list[Action]:
-        """Give a JAUS message to the translator that claims it."""
-        tr = self.by_message.get(name)
-        if tr is None:
-            return []
-        try:
-            actions = list(tr.on_message(name, fields, ctx))
-        except Exception as exc:
-            return self._failed(tr, f"JAUS {name}", exc, ctx)
-        return self._count_drops(tr, f"JAUS {name}", actions, ctx)
+        """Give a JAUS message to the translator whose claim matches it most closely (its
+        message set, ``ctx.service_set``, and the services of its sender, ``ctx.source``);
+        to each of them when several match equally (one component offering the services
+        of two: its List Manager's reports concern both)."""
+        out: list[Action] = []
+        for tr in self.route(name, ctx):
+            try:
+                actions = list(tr.on_message(name, fields, ctx))
+            except Exception as exc:
+                self._failed(tr, f"JAUS {name}", exc, ctx)
+                continue
+            out += self._count_drops(tr, f"JAUS {name}", actions, ctx)
+        return out
 
     def _count_drops(self, tr: Translator, what: str, actions: list[Action],
                      ctx: TranslatorContext) -> list[Action]:
@@ -155,6 +169,22 @@ class TranslationManager:
                                   vehicle, action.reason,
                                   f" ({action.detail})" if action.detail else "")
         return [a for a in actions if not isinstance(a, Dropped)]
+
+    def route(self, name: str, ctx: TranslatorContext) -> list[Translator]:
+        """The translators a message ``name`` in ``ctx`` goes to: the claims matching it
+        most closely (none: nobody takes it)."""
+        claims = self.claims.get(name)
+        if not claims:
+            return []
+        if len(claims) == 1 and not claims[0][0].specificity:
+            return [claims[0][1]]
+        services: tuple[str, ...] = ()
+        if ctx.vehicle is not None and ctx.source is not None:
+            services = tuple(uri for uri, _ in ctx.vehicle.components.get(ctx.source, ()))
+        matching = [(b.specificity, tr) for b, tr in claims
+                    if b.matches(ctx.service_set, services)]
+        best = max((m[0] for m in matching), default=0)
+        return [tr for specificity, tr in matching if specificity == best]
 
     def on_sample(self, topic: str, sample: Mapping[str, Any],
                   ctx: TranslatorContext) -> list[Action]:
@@ -196,6 +226,12 @@ class TranslationManager:
 
 def _name(tr: Translator) -> str:
     return tr.name or type(tr).__name__
+
+
+def _bound(a: Binding, b: Binding) -> str:
+    if not a.specificity and not b.specificity:
+        return ""
+    return " (bind it to a message set or to the services sending it, without overlap)"
 
 
 def _claim(claims: dict[str, str], key: str, who: str, what: str) -> None:

@@ -47,15 +47,18 @@ class Reports:
             providers = vehicle.providers(spec.service)
             if not providers:
                 continue
-            key = (providers[0], spec.report)
+            # a report two sets define (ReportActiveElement) is one subscription per set
+            key = (providers[0], f"{spec.service_set}:{spec.report}" if spec.service_set
+                   else spec.report)
             sub = vehicle.subscriptions.get(key)
             if sub is None:
                 rate = state.profile.report_rate(spec.report, spec.rate, vehicle.profile)
                 sub = Subscription(providers[0], spec.report, spec.query, spec.query_fields,
                                    min(rate, MAX_RATE), spec.on_change, state.profile.events,
                                    partial(state.encode_query,
-                                           dialects=state.dialects(vehicle)),
-                                   vehicle.next_request_id)
+                                           dialects=state.dialects(vehicle),
+                                           service_set=spec.service_set),
+                                   vehicle.next_request_id, spec.service_set)
                 vehicle.subscriptions[key] = sub
             if sub.state is SubscriptionState.NEW:
                 starting.append(sub)
@@ -129,7 +132,7 @@ class Reports:
         if inner is None:
             counters["events_undecodable"] += 1
             return
-        name, inner_fields = inner
+        name, inner_fields, service_set = inner
         event_id = int(pick(fields, "event_id", -1))
         for sub in vehicle.subscriptions.values():
             if sub.provider == source and sub.matches_event(event_id, name):
@@ -142,13 +145,14 @@ class Reports:
             # that raced our confirm)
             counters["events_unmatched"] += 1
         counters["events_received"] += 1
-        self._handle(vehicle, source, name, inner_fields, now)
+        self._handle(vehicle, source, name, inner_fields, now, service_set)
 
     def _unwrap(self, vehicle: Vehicle,
-                fields: Mapping[str, Any]) -> tuple[str, Mapping[str, Any]] | None:
+                fields: Mapping[str, Any]) -> tuple[str, Mapping[str, Any], str] | None:
         payload: Any = fields.get("report_message")
         if hasattr(payload, "name"):
             name, inner = payload.name, payload.fields
+            service_set = set_of(payload)
         elif isinstance(payload, bytes | bytearray):
             try:
                 dialects = self._state.dialects(vehicle)
@@ -158,8 +162,14 @@ class Reports:
                 log.debug("undecodable report in Event: %s", exc)
                 return None
             name, inner = message.name, message.fields
+            service_set = set_of(message)
         else:
             return None
         if name is None:
             return None
-        return name, inner or {}
+        return name, inner or {}, service_set
+
+
+def set_of(message: Any) -> str:
+    """The message set of a decoded message ("" when not known)."""
+    return str(getattr(getattr(message, "definition", None), "service_set", "") or "")

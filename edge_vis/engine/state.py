@@ -19,13 +19,15 @@ from edge_vis.config import RelayProfile
 from edge_vis.engine.control import Outgoing
 from edge_vis.engine.subscriptions import Request
 from edge_vis.engine.vehicle import Vehicle
+from edge_vis.errors import EncodeError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.actions import Action, SendMessage
 
 #: tells translators that ``vehicle`` changed (``change`` names what) at ``now``
 Changed = Callable[[Vehicle, str, float], None]
 #: handles one (possibly unwrapped) JAUS message ``name`` of a known vehicle
-Handle = Callable[[Vehicle, JausAddress, str, Mapping[str, Any], float], None]
+#: (vehicle, sender, message name, fields, now, the message's set) -> None
+Handle = Callable[[Vehicle, JausAddress, str, Mapping[str, Any], float, str], None]
 #: handles one JAUS message of a known vehicle whose name is implied (a handler table entry)
 Handler = Callable[[Vehicle, JausAddress, Mapping[str, Any], float], None]
 
@@ -37,6 +39,8 @@ class InnerCodec(Protocol):
                dialects: Sequence[str] = ()) -> bytes: ...
 
     def decode(self, payload: bytes, dialects: Sequence[str] = ()) -> Any: ...
+
+    def by_name(self, name: str, service_set: str | None = None) -> Any: ...
 
 
 def dialects_of(catalogue: Any, vehicle: Vehicle) -> tuple[str, ...]:
@@ -88,6 +92,9 @@ class EngineState:
         #: a subscription started or stopped polling: the rates must be planned again
         self.plan_dirty = False
         self.shutting_down = False
+        #: several relays may reach a vehicle: only the vehicles whose ``serving`` is set
+        #: are served (:mod:`edge_vis.engine.duty`); False: every vehicle is
+        self.arbitrated = False
         #: (topic, instance key) -> the latest merged sample (Publish with ``merge``)
         self.merged: dict[tuple[str, tuple[Any, ...]], dict[str, Any]] = {}
         #: ShutdownComplete was emitted: the engine takes no more input
@@ -104,11 +111,24 @@ class EngineState:
         return self._catalogue
 
     def encode_query(self, name: str, fields: Mapping[str, Any],
-                     dialects: Sequence[str] = ()) -> bytes:
-        """The complete query message a CreateEvent carries (as ``dialects`` read it)."""
+                     dialects: Sequence[str] = (), service_set: str | None = None) -> bytes:
+        """The complete query message a CreateEvent carries (as ``dialects`` read it; the
+        message of ``service_set`` when two sets use ``name``)."""
+        code: str | int = name
+        if service_set is not None:
+            try:
+                code = self.catalogue.by_name(name, service_set).code
+            except KeyError:
+                raise EncodeError(f"no message named {name!r} in service set "
+                                  f"{service_set!r}") from None
         if dialects:
-            return self.catalogue.encode(name, fields, dialects)
-        return self.catalogue.encode(name, fields)
+            return self.catalogue.encode(code, fields, dialects)
+        return self.catalogue.encode(code, fields)
+
+    def serves(self, vehicle: Vehicle) -> bool:
+        """This relay serves ``vehicle``: creates its events, holds its control, sends its
+        commands and publishes its samples."""
+        return vehicle.serving or not self.arbitrated
 
     def dialects(self, vehicle: Vehicle) -> tuple[str, ...]:
         """The message dialects ``vehicle`` speaks (see :func:`dialects_of`)."""
@@ -119,10 +139,10 @@ class EngineState:
         self.touched[id(vehicle)] = vehicle
 
     def send(self, destination: JausAddress, name: str, fields: Mapping[str, Any],
-             traffic_class: str = "liveness") -> None:
+             traffic_class: str = "liveness", service_set: str | None = None) -> None:
         """Queue a JAUS message for ``destination``."""
         self.actions.append(SendMessage(destination, name, dict(fields),
-                                        traffic_class=traffic_class))
+                                        traffic_class=traffic_class, service_set=service_set))
 
     def send_outgoing(self, destination: JausAddress, items: Sequence[Outgoing]) -> None:
         """Queue what an access-control machine wants sent."""
@@ -132,4 +152,4 @@ class EngineState:
     def send_requests(self, destination: JausAddress, items: Sequence[Request]) -> None:
         """Queue what a subscription machine wants sent."""
         for item in items:
-            self.send(destination, item.name, item.fields, "telemetry")
+            self.send(destination, item.name, item.fields, "telemetry", item.service_set)

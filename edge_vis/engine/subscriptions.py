@@ -82,6 +82,8 @@ class Request:
 
     name: str
     fields: Mapping[str, Any]
+    #: the message set of ``name`` when two sets use it (a query a report spec names)
+    service_set: str | None = None
 
 
 class Subscription:
@@ -102,11 +104,14 @@ class Subscription:
         profile: EventsProfile,
         encode_query: Callable[[str, Mapping[str, Any]], bytes],
         next_request_id: Callable[[], int],
+        service_set: str | None = None,
     ) -> None:
         self.provider = provider
         self.report = report
         self.query = query
         self.query_fields = dict(query_fields)
+        #: the message set of the query and report (None: the name is enough)
+        self.service_set = service_set
         self.rate = rate
         self.on_change = on_change
         self.profile = profile
@@ -326,7 +331,7 @@ class Subscription:
             return self._create(now, refresh=True)
         if self.state is SubscriptionState.POLLING:
             self.deadline = now + self._period()
-            return [Request(self.query, self.query_fields)]
+            return [Request(self.query, self.query_fields, self.service_set)]
         if self.state is SubscriptionState.CANCELLING:
             self.unanswered = True
             self._done()
@@ -368,7 +373,7 @@ class Subscription:
         self.event_id = None
         self.stale_deadline = None
         self.deadline = now + self._period()
-        return [Request(self.query, self.query_fields)]
+        return [Request(self.query, self.query_fields, self.service_set)]
 
     def _done(self) -> None:
         self.state = SubscriptionState.DONE

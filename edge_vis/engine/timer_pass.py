@@ -13,6 +13,7 @@ releases control, then reports ShutdownComplete once all are answered or timed o
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
+from typing import TYPE_CHECKING
 
 from edge_vis.engine.access import Access
 from edge_vis.engine.commands import Commands
@@ -27,6 +28,9 @@ from edge_vis.engine.subscriptions import SubscriptionState
 from edge_vis.engine.vehicle import Vehicle
 from edge_vis.kit.actions import ShutdownComplete
 
+if TYPE_CHECKING:
+    from edge_vis.engine.duty import Duty
+
 
 class TimerPass:
     """Runs the timer pass over the engine's parts and tracks the next deadline."""
@@ -34,7 +38,8 @@ class TimerPass:
     def __init__(self, state: EngineState, finder: Finder, liveness: Liveness,
                  access: Access, reports: Reports, commands: Commands, rates: Rates,
                  estop: EmergencyStops,
-                 polls: Sequence[Callable[[Vehicle, float], None]] = ()) -> None:
+                 polls: Sequence[Callable[[Vehicle, float], None]] = (),
+                 duty: Duty | None = None) -> None:
         self._state = state
         self._finder = finder
         self._liveness = liveness
@@ -45,6 +50,8 @@ class TimerPass:
         #: further per-vehicle duties (holder queries, clocks), each due by its own fields
         self._polls = tuple(polls)
         self._estop = estop
+        #: serving or standing by, when several relays share the domain
+        self._duty = duty
         self._vehicle_due: float | None = None
         self._due_valid = False
         self._vehicle_count = 0
@@ -56,6 +63,8 @@ class TimerPass:
         times: list[float | None] = [self._shutdown_deadline]
         if not state.shutting_down:
             times.append(self._finder.next_discovery)
+            if self._duty is not None:
+                times.append(self._duty.next_due)
         if not self._due_valid:
             self._vehicle_due = self._earliest(state.vehicles.values())
             self._due_valid = True
@@ -88,6 +97,11 @@ class TimerPass:
             due = self._earliest(visit)
             if due is not None and (self._vehicle_due is None or due < self._vehicle_due):
                 self._vehicle_due = due
+        if self._duty is not None and not state.shutting_down:
+            self._duty.start(now)
+            self._duty.on_timer(now)
+            for vehicle in state.touched.values():  # started or stopped serving
+                self._visit(vehicle, now)
         if state.touched:  # a visit touched another vehicle: settle it at the next pass
             self._due_valid = False
         if state.plan_dirty and state.planner is not None and not state.shutting_down:
@@ -125,8 +139,9 @@ class TimerPass:
         if vehicle.estop is not None:
             self._estop.pump(vehicle, now)
         self._access.poll(vehicle, now)
-        for poll in self._polls:
-            poll(vehicle, now)
+        if state.serves(vehicle):  # a relay standing by keeps to liveness
+            for poll in self._polls:
+                poll(vehicle, now)
         self._reports.poll(vehicle, now)
         if not stopping:
             self._commands.pump(vehicle, now)

@@ -80,6 +80,15 @@ class Vehicle:
     announced_by: VehicleProfile | None = None
     #: the emergency stop set through the relay, until cleared (:mod:`edge_vis.engine.estop`)
     estop: Estop | None = None
+    #: this relay serves it (events, control, commands, samples); with one relay, always
+    #: (:mod:`edge_vis.engine.duty` decides when several relays share a DDS domain)
+    serving: bool = False
+    #: one bit per liveness period, newest lowest: heard from in that period
+    heard: int = 0
+    probes: int = 0
+    last_probe_at: float | None = None
+    #: when commands for it arrived while another relay served it (newest last, bounded)
+    not_sent_at: list[float] = field(default_factory=list)
     #: (services, the dialects they were recognised as): recognised once per change
     dialect_cache: tuple[tuple[Service, ...], tuple[str, ...]] | None = None
 

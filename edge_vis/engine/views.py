@@ -96,6 +96,7 @@ class Views:
             emergency=vehicle.estop is not None or EMERGENCY in vehicle.statuses.values(),
             emergency_operator=vehicle.estop.operator_id if vehicle.estop else "",
             emergency_reason=vehicle.estop.reason if vehicle.estop else "",
+            relay=state.profile.relay_name if state.serves(vehicle) else "",
             handoffs=tuple(handoff_view(e) for e in vehicle.handoffs.entries),
             handoff_timeout=state.profile.control.handoff_timeout,
             handoff_reassert_timeout=state.profile.control.handoff_reassert_timeout,
@@ -106,7 +107,7 @@ class Views:
         )
 
     def context(self, vehicle: Vehicle | None, now: float,
-                source: JausAddress | None = None) -> TranslatorContext:
+                source: JausAddress | None = None, service_set: str = "") -> TranslatorContext:
         """What a translator is handed with an input at ``now``."""
         state = self._state
         return TranslatorContext(
@@ -117,6 +118,7 @@ class Views:
             vehicles=self._lazy,
             source=source,
             catalogue=state.catalogue,
+            service_set=service_set,
         )
 
     def snapshot(self) -> EngineSnapshot:

@@ -14,6 +14,9 @@ A translator plugin imports from here and from nothing else of edge-vis::
 * the rule vocabulary (:mod:`edge_vis.kit.rules`): report and command tables that
   :class:`RuleTranslator` runs and ``edge-vis mappings`` prints, and :func:`path_problem`
   and :func:`resolve_path` to check a field path against a message definition;
+* List Manager plans (:mod:`edge_vis.kit.lists`): :class:`ListDriver` declares a list
+  driver, :class:`ListLoader` loads a plan into it, :class:`ListReadBack` reads back what it
+  holds, :func:`list_bindings` binds the List Manager's messages to the translator's drivers;
 * :func:`setting` and :func:`read_table`, from the validation kit (:mod:`edge_vis.schema`),
   to declare a translator's options as a dataclass (:attr:`Translator.options_type`).
 
@@ -37,6 +40,7 @@ from edge_vis.kit.actions import (
 )
 from edge_vis.kit.contract import (
     STATUS_NAMES,
+    Binding,
     ClockView,
     HandoffView,
     HolderView,
@@ -48,6 +52,19 @@ from edge_vis.kit.contract import (
     derive_vehicle_id,
 )
 from edge_vis.kit.imagery import CHUNK_BYTES, image_chunks, publish_image
+from edge_vis.kit.lists import (
+    ELEMENTS_PER_SET,
+    LIST_REPLIES,
+    LIST_REPORTS,
+    QUERIES_IN_FLIGHT,
+    HeldList,
+    ListDriver,
+    ListLoad,
+    ListLoader,
+    ListReadBack,
+    list_bindings,
+    providers,
+)
 from edge_vis.kit.rules import (
     NAN,
     Build,
@@ -80,9 +97,14 @@ from edge_vis.schema import read_table, setting
 
 __all__ = [
     "CHUNK_BYTES",
+    "ELEMENTS_PER_SET",
+    "LIST_REPLIES",
+    "LIST_REPORTS",
     "NAN",
+    "QUERIES_IN_FLIGHT",
     "STATUS_NAMES",
     "Action",
+    "Binding",
     "Build",
     "ClockView",
     "Command",
@@ -98,8 +120,13 @@ __all__ = [
     "EncodeError",
     "From",
     "HandoffView",
+    "HeldList",
     "HolderView",
     "JausAddress",
+    "ListDriver",
+    "ListLoad",
+    "ListLoader",
+    "ListReadBack",
     "Publish",
     "Put",
     "PutEach",
@@ -125,8 +152,10 @@ __all__ = [
     "get_path",
     "image_chunks",
     "label",
+    "list_bindings",
     "number",
     "path_problem",
+    "providers",
     "publish_image",
     "put",
     "read_table",

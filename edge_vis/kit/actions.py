@@ -151,6 +151,14 @@ class ShutdownComplete:
     unanswered: int = 0
 
 
+@dataclass(frozen=True, slots=True)
+class Withdraw:
+    """Stop writing every DDS instance of ``vehicle_id``: another relay serves it now
+    (emitted by the engine, :mod:`edge_vis.engine.duty`; translators do not return it)."""
+
+    vehicle_id: str
+
+
 def follow_up_query(destination: JausAddress, name: str,
                     fields: Mapping[str, Any] | None = None) -> SendMessage:
     """A query a report calls for (see the module docstring), to ``destination``: no
@@ -159,4 +167,4 @@ def follow_up_query(destination: JausAddress, name: str,
 
 
 Action = Union[SendMessage, Publish, Command, DeclareVehicle, EmergencyRequest,  # noqa: UP007
-               Dropped, ShutdownComplete]
+               Dropped, ShutdownComplete, Withdraw]

@@ -9,7 +9,12 @@ class attributes, what it deals with, so conflicts are found at start-up:
   polls when the vehicle ignores events);
 * ``publishes`` / ``subscribes`` - the DDS topics it writes and reads;
 * ``controlled_services`` - service URIs it sends commands to; the engine takes control of
-  the components offering them while an operator holds the vehicle.
+  the components offering them while an operator holds the vehicle;
+* ``bindings`` - for a listed message whose name is not enough, which of them it takes
+  (:class:`Binding`): the one of a message set (``ReportActiveElement`` is 0x441E in
+  mobility and 0x461E in manipulator) and/or those sent by a component offering one of
+  some services (the core List Manager's reports, which every list driver inherits). Two
+  translators may list one name when their bindings do not overlap.
 
 Call order (one translator instance per engine)::
 
@@ -63,6 +68,37 @@ class ReportSpec:
     query_fields: Mapping[str, Any] = field(default_factory=dict)
     rate: float = 1.0
     on_change: bool = False
+    #: the message set of ``query`` and ``report`` when two sets use the names
+    service_set: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Binding:
+    """Which messages of a listed name reach a translator: those of ``service_set`` ("" =
+    any set) sent by a component offering one of ``services`` (empty = any component)."""
+
+    service_set: str = ""
+    services: tuple[str, ...] = ()
+
+    def overlaps(self, other: Binding) -> bool:
+        """Whether a message could match both (then two translators cannot both claim it)."""
+        sets = not self.service_set or not other.service_set \
+            or self.service_set == other.service_set
+        services = not self.services or not other.services \
+            or bool(set(self.services) & set(other.services))
+        return sets and services
+
+    def matches(self, service_set: str, services: tuple[str, ...]) -> bool:
+        """Whether a message of ``service_set`` ("" when not known: any) from a component
+        offering ``services`` matches."""
+        return (not self.service_set or not service_set or self.service_set == service_set) \
+            and \
+            (not self.services or any(uri in services for uri in self.services))
+
+    @property
+    def specificity(self) -> int:
+        """The more a binding names, the more it is preferred among matches."""
+        return 2 * bool(self.service_set) + bool(self.services)
 
 
 @dataclass(frozen=True, slots=True)
@@ -164,6 +200,8 @@ class VehicleView:
     emergency_reason: str = ""
     holders: tuple[HolderView, ...] = ()
     clock: ClockView | None = None
+    #: the relay serving it (this one's name while it does; see ``[serving]``)
+    relay: str = ""
     #: hand-off requests to the holder (open ones and the latest outcomes), the relay's
     #: hand-off and re-assert timeouts (s, 0 = none) and the vehicle's own (NaN: unknown)
     handoffs: tuple[HandoffView, ...] = ()
@@ -200,6 +238,8 @@ class TranslatorContext:
     #: the relay's message catalogue (``edge_vis.catalogue.Catalogue``: shipped sets,
     #: message-set plugins and the profile's JSIDL), for encoding or looking up messages
     catalogue: Any = None
+    #: the message set of the message being translated ("" when not known)
+    service_set: str = ""
 
 
 class Translator(ABC):  # noqa: B024 - every hook has a harmless default
@@ -215,6 +255,8 @@ class Translator(ABC):  # noqa: B024 - every hook has a harmless default
     publishes: ClassVar[tuple[str, ...]] = ()
     subscribes: ClassVar[tuple[str, ...]] = ()
     controlled_services: ClassVar[tuple[str, ...]] = ()
+    #: listed message name -> which of them it takes (unbound names: all of them)
+    bindings: ClassVar[Mapping[str, Binding]] = {}
     #: DDS topics of this translator's own: :class:`TopicDecl` (a topic name for a type of
     #: the shipped data model), or ``edge_vis.dds.topics.TopicSpec`` for a custom
     #: translator that brings its own IDL type

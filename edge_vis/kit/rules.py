@@ -48,7 +48,7 @@ from edge_vis.codec.types import BitField, List, Record, VarFormat, Variant
 from edge_vis.errors import DecodeError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.kit.actions import Action, Command, Publish
-from edge_vis.kit.contract import ReportSpec, Translator, TranslatorContext
+from edge_vis.kit.contract import Binding, ReportSpec, Translator, TranslatorContext
 
 log = logging.getLogger(__name__)
 
@@ -103,6 +103,9 @@ class ReportRule:
     ``query``/``service``/``query_fields``/``rate``/``on_change`` become the
     :class:`~edge_vis.kit.contract.ReportSpec` the engine subscribes with; without
     ``query`` the message is taken as it comes (unsolicited, or asked for elsewhere).
+    ``service_set`` binds the rule to that set's message when two sets use the name
+    (``ReportActiveElement``): only that one reaches the translator, and the query is
+    encoded with that set's code.
     """
 
     message: str
@@ -119,6 +122,7 @@ class ReportRule:
     merge: bool = False
     stamp: bool = True
     doc: str = ""
+    service_set: str = ""
 
 
 @dataclass(frozen=True, slots=True)
@@ -571,18 +575,21 @@ def _matches(value: Any, wanted: Any) -> bool:
 
 def declarations(report_rules: Sequence[ReportRule], command_rules: Sequence[CommandRule],
                   extra_messages: Sequence[str] = (), extra_publishes: Sequence[str] = ()
-                  ) -> dict[str, tuple[Any, ...]]:
+                  ) -> dict[str, Any]:
     messages = dict.fromkeys([*(r.message for r in report_rules), *extra_messages])
     reports = tuple(
-        ReportSpec(r.message, r.query, r.service, dict(r.query_fields), r.rate, r.on_change)
+        ReportSpec(r.message, r.query, r.service, dict(r.query_fields), r.rate, r.on_change,
+                   r.service_set or None)
         for r in report_rules if r.query
     )
+    bindings = {r.message: Binding(service_set=r.service_set)
+                for r in report_rules if r.service_set}
     publishes = dict.fromkeys([*(r.topic for r in report_rules), *extra_publishes])
     subscribes = dict.fromkeys(r.topic for r in command_rules)
     controlled = dict.fromkeys(r.service for r in command_rules)
     return {"messages": tuple(messages), "reports": _unique_reports(reports),
             "publishes": tuple(publishes), "subscribes": tuple(subscribes),
-            "controlled_services": tuple(controlled)}
+            "controlled_services": tuple(controlled), "bindings": bindings}
 
 
 def _unique_reports(reports: Sequence[ReportSpec]) -> tuple[ReportSpec, ...]:
@@ -609,6 +616,8 @@ def describe_rules(translator: str, report_rules: Sequence[ReportRule],
                         "note": _spec_source(spec)[1]} for member, spec in r.fields.items()],
             "doc": r.doc,
         })
+        if r.service_set:
+            rows[-1]["service_set"] = r.service_set
     for c in command_rules:
         when = ", ".join(f"{k}={getattr(v, '__doc__', None) or v}" if callable(v)
                          else f"{k}={v}" for k, v in c.when.items())

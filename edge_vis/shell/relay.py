@@ -38,7 +38,13 @@ from edge_vis.engine.engine import Engine
 from edge_vis.errors import CodecError, ConfigError, EdgeVisError, EncodeError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.jaus.transport import Broadcast, Packet
-from edge_vis.kit.actions import EMERGENCY_CLASS, Publish, SendMessage, ShutdownComplete
+from edge_vis.kit.actions import (
+    EMERGENCY_CLASS,
+    Publish,
+    SendMessage,
+    ShutdownComplete,
+    Withdraw,
+)
 from edge_vis.routing.accounting import Kind, LogLimiter, Tally, losses, tallies_of, totals
 from edge_vis.routing.link import Link, Peer, create_link
 from edge_vis.routing.router import Deliver, DeliveryFailed, Router, RouterConfig, SendPackets
@@ -116,6 +122,8 @@ class Runtime:
         self.engine = Engine(
             self.profile, catalogue=self.catalogue, wall_offset=time.time() - loop.time(),
             planner=self.planner,
+            # on a DDS domain other relays may reach the same vehicles: one serves each
+            arbitrate=self._publisher_factory == "dds",
         )
         self.engine.link_of = self._link_of
         # what the translators' options name must exist (edge-vis check does the same)
@@ -130,8 +138,11 @@ class Runtime:
         for link_profile in self.profile.links:
             await self._open_link(link_profile)
         log.info(
-            "relay %s (%s) running: links %s, translators %s",
-            self.profile.jaus_id, self.profile.name, ", ".join(self.links) or "none",
+            "relay %s (%s%s) running: links %s, translators %s",
+            self.profile.jaus_id, self.profile.name,
+            f", named {self.profile.relay_name} on DDS"
+            if self.profile.relay_name != str(self.profile.jaus_id) else "",
+            ", ".join(self.links) or "none",
             ", ".join(t.name for t in self.engine.manager.translators) or "none",
         )
         if self.profile.operators.closed:
@@ -206,7 +217,8 @@ class Runtime:
                            max_products=self.profile.limits.max_products,
                            security=dds.security)
         published, subscribed = self.engine.manager.topics()
-        bridge.open_writers([*published, "LinkStatus"])
+        bridge.open_writers([*published, "LinkStatus", "RelayStatus"])
+        bridge.subscribe(["RelayStatus"], self._on_relay_status, loop=self._loop)
         subscribed = [t for t in dict.fromkeys(subscribed)]
         if subscribed:
             bridge.watch_writers(self._on_operator_lost, loop=self._loop)
@@ -316,6 +328,15 @@ class Runtime:
         self.engine.receive_sample(topic, sample, now)
         self._pump_engine(now)
 
+    def _on_relay_status(self, topic: str, sample: dict[str, Any]) -> None:
+        """A relay on the domain (this one included) said what it reaches and serves."""
+        assert self._loop is not None
+        if self.engine is None:
+            return
+        now = self._loop.time()
+        self.engine.receive_relay_status(sample, now)
+        self._pump_engine(now)
+
     def _on_sample_from(self, sender: str, topic: str, sample: dict[str, Any]) -> None:
         """A command read in ``sender``'s partition, which only ``sender``'s signed
         permissions may write to: its ``operator_id`` must be ``sender``."""
@@ -325,6 +346,15 @@ class Runtime:
             return
         assert self._loop is not None and self.engine is not None
         now = self._loop.time()
+        action = sample.get("action", 0)  # the enum member, its name or its value
+        if topic == "EmergencyCommand" and str(getattr(action, "name", action)).lower() in (
+                "0", "set"):
+            # a stop is never lost: it is obeyed as the operator who proved who it is
+            self.counters["emergency stops taken as their sender"] += 1
+            self._log.warning("impersonation", now, "EmergencyCommand SET claiming %r taken "
+                              "as %s, its sender", claimed, sender)
+            self._on_sample(topic, {**sample, "operator_id": sender})
+            return
         self.counters["commands refused: operator_id is not the sender"] += 1
         reason = f"operator_id {claimed!r} refused: sent by {sender}"
         self._log.warning("impersonation", now, "%s %s", topic, reason)
@@ -408,6 +438,9 @@ class Runtime:
                     self._send(action, now)
                 elif isinstance(action, Publish):
                     self._publish(action.topic, action.sample)
+                elif isinstance(action, Withdraw):
+                    if self.publisher is not None and hasattr(self.publisher, "withdraw"):
+                        self.publisher.withdraw(action.vehicle_id)
                 elif isinstance(action, ShutdownComplete) and self._shutdown_done is not None:
                     self._shutdown_done.set()
         self._rearm(now)
@@ -440,6 +473,9 @@ class Runtime:
         if topic == "ImageProduct" and self.images is not None \
                 and not sample.get("transfer_id"):
             sample = self.images.announce(sample)  # one product per image; fetch it
+        elif topic == "RelayStatus":  # the core knows the links by name; here by state
+            sample = {**sample, "links": [{"link": name, "up": link.stats().state == "open"}
+                                          for name, link in self.links.items()]}
         self.counters["samples out"] += 1
         if self.publisher is None:
             return
@@ -530,7 +566,8 @@ class Runtime:
                 for drop, count in queue.drops.items():  # name the classes, not numbers
                     drops[drop.named(priorities)] += count
             samples.append({
-                "link": name, "vehicle_id": "", "up": stats.state == "open",
+                "link": name, "vehicle_id": "", "relay": self.profile.relay_name,
+                "up": stats.state == "open",
                 "budget_bps": (spec.budget_bps if spec is not None and spec.limited
                                else float(link.bandwidth_bps or 0.0)),
                 "measured_bps": 0.0,

@@ -54,7 +54,11 @@ RESTART_ONLY: Mapping[str, str] = {
     "jsidl": "the message catalogue is built at start",
 }
 #: settings the engine reads each time it uses them
-LIVE = frozenset({"name", "discovery"})
+LIVE = frozenset({"name", "discovery", "serving"})
+#: leaves of a live section that still need a restart
+RESTART_LEAVES: Mapping[str, str] = {
+    "serving.relay_name": "the relay's name is its identity among the relays on DDS",
+}
 #: settings the engine captures per vehicle, subscription, control or command slot
 CAPTURED = frozenset({"authority", "control", "events", "commands", "report_rates",
                       "vehicles"})
@@ -141,6 +145,9 @@ def diff_profiles(old: RelayProfile, new: RelayProfile, *,
         else:  # a setting added to the profile later: never guess that it is safe
             outcome, why = RESTART, "not known to be changeable at run time"
         for key, b, a in _leaf_changes(name, before, after):
+            if key in RESTART_LEAVES:
+                changes.append(Change(key, b, a, RESTART, RESTART_LEAVES[key]))
+                continue
             changes.append(Change(key, b, a, outcome, why))
     return changes
 
@@ -152,6 +159,7 @@ def effective_profile(old: RelayProfile, new: RelayProfile) -> RelayProfile:
     for fld in dataclasses.fields(RelayProfile):
         if fld.name not in known:
             keep[fld.name] = getattr(old, fld.name)
+    keep["serving"] = dataclasses.replace(new.serving, relay_name=old.serving.relay_name)
     return dataclasses.replace(new, **keep)
 
 

@@ -7,7 +7,8 @@ discovery, liveliness, metadata and data are encrypted.
 Permissions (one per identity, naming its certificate's subject), default DENY:
 
 * a **relay** publishes any topic in the relay's partitions (vehicle topics are the
-  relays' alone) and reads the command topics in the operator partitions;
+  relays' alone), reads the command topics in the operator partitions and the other
+  relays' ``RelayStatus`` (:mod:`edge_vis.engine.duty`);
 * an **operator** publishes the command topics only in its own partition
   (:func:`~edge_vis.config.deployment.operator_partition`), so the partition a command
   arrives in proves who wrote it, and reads every topic in the relay's partitions;
@@ -95,7 +96,9 @@ def permissions_xml(grants: Iterable[Grant], domain: int, partitions: Sequence[s
     for grant in grants:
         if grant.role == RELAY:
             rules = (_criteria("publish", ["*"], partitions)
-                     + _criteria("subscribe", commands, [f"{OPERATOR_PARTITION_PREFIX}*"]))
+                     + _criteria("subscribe", commands, [f"{OPERATOR_PARTITION_PREFIX}*"])
+                     # relays sharing the domain read each other's RelayStatus
+                     + _criteria("subscribe", ["RelayStatus"], partitions))
         elif grant.role == OPERATOR:
             rules = (_criteria("publish", commands, [operator_partition(grant.name)])
                      + _criteria("subscribe", ["*"], partitions))

@@ -20,7 +20,9 @@ from __future__ import annotations
 
 import contextlib
 import datetime
+import fnmatch
 import re
+import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -189,11 +191,66 @@ def security_table(settings: DdsSecurityProfile, relative_to: Path | None = None
     return "\n".join(lines) + "\n"
 
 
-def security_problems(settings: DdsSecurityProfile,
-                      where: str = "dds.security") -> list[tuple[str, str]]:
+def _domains(rule: ET.Element) -> list[tuple[int, int]]:
+    """The ``<domains>`` of a governance domain_rule or permissions allow_rule, as ranges."""
+    out = []
+    for ident in rule.iterfind("domains/id"):
+        out.append((int(ident.text or -1), int(ident.text or -1)))
+    for span in rule.iterfind("domains/id_range"):
+        low, high = span.findtext("min"), span.findtext("max")
+        out.append((int(low or 0), int(high) if high else 1 << 31))
+    return out
+
+
+def _covers(ranges: list[tuple[int, int]], domain: int) -> bool:
+    return any(low <= domain <= high for low, high in ranges)
+
+
+def _document_problems(governance: str, permissions: str, subject: str, domain: int,
+                       partitions: Sequence[str]) -> list[tuple[str, str]]:
+    """What keeps a relay (``subject``) in ``domain`` and ``partitions`` from joining and
+    publishing under these documents (made for another domain or other partitions)."""
+    problems: list[tuple[str, str]] = []
+    try:
+        rules = ET.fromstring(governance).iterfind("domain_access_rules/domain_rule")
+        if not any(_covers(_domains(rule), domain) for rule in rules):
+            problems.append(("governance", f"has no rule for the profile's DDS domain {domain} "
+                             "(made for another [dds] domain? run edge-vis security init "
+                             "again)"))
+        grants = [g for g in ET.fromstring(permissions).iterfind("permissions/grant")
+                  if (g.findtext("subject_name") or "").strip() == subject]
+    except (ET.ParseError, ValueError) as exc:
+        return [("permissions", f"signed, but not a DDS Security document: {exc}")]
+    if not grants:
+        return [*problems, ("permissions", f"grants nothing to the certificate's subject "
+                                           f"{subject}")]
+    allowed = [rule for grant in grants for rule in grant.iterfind("allow_rule")
+               if _covers(_domains(rule), domain)]
+    if not allowed:
+        problems.append(("permissions", f"allow nothing in the profile's DDS domain {domain} "
+                         "(made for another [dds] domain? run edge-vis security init again)"))
+        return problems
+    patterns = [(p.text or "") for rule in allowed for p in rule.iterfind("publish/partitions/"
+                                                                          "partition")]
+    if any(rule.find("publish") is not None and rule.find("publish/partitions") is None
+           for rule in allowed):
+        patterns.append("")  # a rule without <partitions>: the default partition
+    denied = [p or "(default)" for p in partitions or ("",)
+              if not any(fnmatch.fnmatchcase(p, pattern) for pattern in patterns)]
+    if denied:
+        problems.append(("permissions", "do not let the relay publish in the profile's "
+                         f"partition(s) {', '.join(denied)} (made for other [dds] partitions? "
+                         "run edge-vis security init again)"))
+    return problems
+
+
+def security_problems(settings: DdsSecurityProfile, where: str = "dds.security", *,
+                      domain: int | None = None,
+                      partitions: Sequence[str] = ()) -> list[tuple[str, str]]:
     """``(key, problem)`` for every file of ``settings`` that is missing, does not parse,
     is not signed by its CA, has expired or been revoked, or does not name the
-    certificate's subject; empty when the relay can join securely."""
+    certificate's subject; with ``domain``, also documents made for another domain or
+    other ``partitions`` (the relay's); empty when the relay can join securely."""
     problems: list[tuple[str, str]] = []
     for key in ("identity_ca", "certificate", "private_key", "permissions_ca", "governance",
                 "permissions", "crl"):
@@ -216,8 +273,8 @@ def security_problems(settings: DdsSecurityProfile,
                 identity_ca, settings.certificate, settings.crl))
     attempt("private_key", "", lambda: check_private_key(settings.private_key,
                                                          settings.certificate))
-    attempt("governance", f"not signed by the permissions CA {permissions_ca}",
-            lambda: verify_document(permissions_ca, settings.governance))
+    governance = attempt("governance", f"not signed by the permissions CA {permissions_ca}",
+                         lambda: verify_document(permissions_ca, settings.governance))
     text = attempt("permissions", f"not signed by the permissions CA {permissions_ca}",
                    lambda: verify_document(permissions_ca, settings.permissions))
     subject = attempt("certificate", "", lambda: certificate_subject(settings.certificate))
@@ -225,6 +282,10 @@ def security_problems(settings: DdsSecurityProfile,
             f"<subject_name>{subject}</subject_name>" not in text:
         problems.append((f"{where}.permissions",
                          f"grants nothing to the certificate's subject {subject}"))
+    elif isinstance(text, str) and isinstance(subject, str) and \
+            isinstance(governance, str) and domain is not None:
+        problems += [(f"{where}.{key}", problem) for key, problem in _document_problems(
+            governance, text, subject, domain, partitions)]
     return problems
 
 

@@ -101,6 +101,9 @@ class VehicleRow:
     emergency_operator: str = ""
     emergency_reason: str = ""
     last_rejection: str = ""
+    #: the relay serving it (VehicleStatus.relay), and how often that changed
+    relay: str = ""
+    relay_changes: int = 0
     #: camera (sensor id) -> its video stream state as last asked for (PLAY, PAUSE, STOP)
     streams: dict[int, str] = field(default_factory=dict)
     #: hand-off requests: (request id, requester, authority, state, explanation)
@@ -139,8 +142,10 @@ class FleetView:
         if self.started is None:
             self.started = now
         self.samples[topic] += 1
-        if topic == "LinkStatus":
-            self.links[str(sample.get("link", ""))] = dict(sample)
+        if topic == "LinkStatus":  # one row per relay and link
+            relay = str(sample.get("relay", "") or "")
+            link = str(sample.get("link", ""))
+            self.links[f"{link}@{relay}" if relay else link] = dict(sample)
             return
         vehicle_id = str(sample.get("vehicle_id", ""))
         if not vehicle_id:
@@ -172,6 +177,10 @@ class FleetView:
         row.emergency = bool(s.get("emergency", False))
         row.emergency_operator = s.get("emergency_operator", "") or ""
         row.emergency_reason = s.get("emergency_reason", "") or ""
+        relay = s.get("relay", "") or ""
+        if relay and row.relay and relay != row.relay:
+            row.relay_changes += 1
+        row.relay = relay or row.relay
 
     def _on_GlobalPose(self, row: VehicleRow, s: Mapping[str, Any]) -> None:
         row.latitude, row.longitude = s.get("latitude"), s.get("longitude")
@@ -286,6 +295,9 @@ class FleetView:
             extra = []
             if row.jaus_address:
                 extra.append(f"jaus {row.jaus_address}")
+            if row.relay:
+                moved = f" (taken over {row.relay_changes}x)" if row.relay_changes else ""
+                extra.append(f"relay {row.relay}{moved}")
             if row.link:
                 extra.append(f"link {row.link}")
             if row.depth is not None:
@@ -324,9 +336,10 @@ class FleetView:
         if self.links:
             lines.append("")
             lines.append((f"{'LINK':<10}{'UP':<4}{'USE kb/s':>9}{'BUDGET kb/s':>12}{'LOAD':>6} "
-                          f"{'IN/OUT msgs':>14}{'QUEUE':>7}{'DROPS':>7}")[:width])
-            for name in sorted(self.links):
-                link = self.links[name]
+                          f"{'IN/OUT msgs':>14}{'QUEUE':>7}{'DROPS':>7} RELAY")[:width])
+            for key in sorted(self.links):
+                link = self.links[key]
+                name = str(link.get("link", key))
                 budget = float(link.get("budget_bps", 0.0) or 0.0)
                 measured = float(link.get("measured_bps", 0.0) or 0.0)
                 load = f"{100 * measured / budget:5.1f}%" if budget > 0 else "-"
@@ -336,7 +349,7 @@ class FleetView:
                 queue = int(link.get("queue_depth", 0) or 0)
                 lines.append((f"{name[:9]:<10}{'yes' if link.get('up') else 'NO':<4}"
                               f"{measured / 1000:9.1f}{budget_text:>12}{load:>6} {msgs:>14}"
-                              f"{queue:>7}{drops:>7}")[:width])
+                              f"{queue:>7}{drops:>7} {link.get('relay', '') or ''}")[:width])
         return lines
 
     def summary(self) -> dict[str, Any]:

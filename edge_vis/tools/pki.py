@@ -14,6 +14,8 @@ operation runs ``openssl`` on files.
 
 from __future__ import annotations
 
+import re
+import shlex
 import shutil
 import subprocess
 from dataclasses import dataclass
@@ -37,13 +39,30 @@ def _openssl(*args: str, stdin: bytes | None = None) -> str:
         raise PkiError("the openssl command is needed (Debian: apt-get install openssl)")
     done = subprocess.run([exe, *args], input=stdin, capture_output=True, check=False)
     if done.returncode != 0:
-        lines = (done.stdout + done.stderr).decode(errors="replace").splitlines()
-        # `openssl verify` says why on stdout ("error 23 at 0 depth lookup: certificate
-        # revoked"), most others on the last line of stderr
-        why = [line.strip() for line in lines if line.startswith("error ")] or \
-            [line.strip() for line in lines[-1:]]
-        raise PkiError(f"openssl {args[0]}: {'; '.join(why) or 'failed'}")
+        command = " ".join(shlex.quote(a) for a in ("openssl", *args))
+        why = openssl_complaint(done.stdout.decode(errors="replace"),
+                                done.stderr.decode(errors="replace"))
+        raise PkiError(f"`{command}` failed (exit {done.returncode}): {why or 'no message'}")
     return done.stdout.decode(errors="replace")
+
+
+#: an OpenSSL 3 error-queue line: ``thread:error:code:library:function:reason:file:line:data``
+_QUEUE_LINE = re.compile(r"^[0-9A-F]+:error:[0-9A-F]+:[^:]*:[^:]*:([^:]*):[^:]*:\d+:(.*)$")
+
+
+def openssl_complaint(stdout: str, stderr: str) -> str:
+    """What a failed ``openssl`` command said, on one line: its whole stderr, with each
+    error-queue line cut to its reason (and extra data), and ``openssl verify``'s verdict,
+    which it prints on stdout (``error 23 at 0 depth lookup: certificate revoked``)."""
+    said = [line.strip() for line in stdout.splitlines() if line.startswith("error ")]
+    for line in stderr.splitlines():
+        line = line.strip()
+        match = _QUEUE_LINE.match(line)
+        if match:
+            line = ": ".join(part for part in match.groups() if part)
+        if line and line not in said:
+            said.append(line)
+    return "; ".join(said)
 
 
 _CA_CONFIG = """\

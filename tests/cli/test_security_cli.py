@@ -118,6 +118,12 @@ def test_check_accepts_the_secured_profile(made: Path,
     ("other operator's permissions", "dds.security.permissions",
      "grants nothing to the certificate's subject CN=relay.relay1"),
     ("open access", "access.any_operator", "set it to false"),
+    ("another domain", "dds.security.governance",
+     "has no rule for the profile's DDS domain 13"),
+    ("another partition", "dds.security.permissions",
+     "do not let the relay publish in the profile's partition(s) site-b"),
+    ("corrupt certificate", "dds.security.certificate",
+     "`openssl x509 -noout -subject -nameopt RFC2253 -in "),
 ])
 def test_check_refuses_material_not_signed_by_the_configured_ca(
         site: Path, change: str, key: str, words: str,
@@ -132,6 +138,15 @@ def test_check_refuses_material_not_signed_by_the_configured_ca(
         shutil.copy(site / "foreign/relay/relay1/key.pem", ours / "key.pem")
     elif change == "other operator's permissions":
         shutil.copy(site / "security/operator/op1/permissions.p7s", ours / "permissions.p7s")
+    elif change == "another domain":  # the profile moved, the documents did not
+        profile = site / "relay.toml"
+        profile.write_text(profile.read_text().replace("domain = 12", "domain = 13"))
+    elif change == "another partition":
+        profile = site / "relay.toml"
+        profile.write_text(profile.read_text().replace('"site-a"', '"site-a", "site-b"'))
+    elif change == "corrupt certificate":  # openssl's own words reach the deployer
+        (ours / "cert.pem").write_text("not a certificate\n")
+        words += f"{ours / 'cert.pem'}` failed (exit 1): Could not read certificate from"
     else:
         profile = site / "relay.toml"
         profile.write_text(profile.read_text() + "[access]\nany_operator = true\n")
@@ -183,7 +198,7 @@ def test_a_bad_operator_id_for_a_partition_is_refused(tmp_path: Path,
 
 
 @pytest.mark.parametrize("half", ["missing file", "security only in CYCLONEDDS_URI",
-                                  "binding without DDS Security"])
+                                  "binding without DDS Security", "--domain elsewhere"])
 def test_run_refuses_to_start_half_secured(site: Path, half: str,
                                            monkeypatch: pytest.MonkeyPatch,
                                            capsys: pytest.CaptureFixture[str]) -> None:
@@ -196,11 +211,14 @@ def test_run_refuses_to_start_half_secured(site: Path, half: str,
         xml = site / "security/operator/op1/cyclonedds.xml"
         monkeypatch.setenv("CYCLONEDDS_URI", f"file://{xml}")
         expected = "CYCLONEDDS_URI turns DDS Security on"
+    elif half == "--domain elsewhere":  # refused before joining, on either binding
+        expected = "dds.security.permissions: allow nothing in the profile's DDS domain 14"
     else:
         secure_qos = pytest.importorskip("edge_vis.dds.secure_qos")
         if secure_qos.security_available():
             pytest.skip("this binding has DDS Security")
         expected = "scripts/setup.sh --secure"
-    assert cli(["run", "--profile", str(profile), "--duration", "0.1"]) == 2
+    domain = ["--domain", "14"] if half == "--domain elsewhere" else []
+    assert cli(["run", "--profile", str(profile), "--duration", "0.1", *domain]) == 2
     err = capsys.readouterr().err
     assert expected in err, err

@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import json
 import os
+import socket
 import subprocess
 import sys
 import threading
@@ -52,7 +53,7 @@ domain = {domain}
 partitions = ["{partition}"]
 {security}
 [translators]
-enabled = ["core", "mobility"]
+enabled = ["core", "mobility", "emergency"]
 [discovery]
 period = 0.5
 liveness_period = 0.5
@@ -90,11 +91,12 @@ class Deployment:
         return {k: str(v) for k, v in asdict(settings).items()}
 
     def operator(self, security: dict[str, str] | None, *, write_as: str,
-                 claim: str | None = None) -> list[dict[str, Any]]:
+                 claim: str | None = None, stop: bool = False) -> list[dict[str, Any]]:
         """Run an operator station process until it is done; its events."""
         config = {"domain": self.domain, "partitions": [self.partition],
                   "security": security, "write_partition": f"operator.{write_as}",
-                  "claim": claim or write_as, "seconds": SECONDS}
+                  "write_as": write_as, "claim": claim or write_as, "seconds": SECONDS,
+                  "stop": stop}
         done = subprocess.run([sys.executable, str(PEER), json.dumps(config)],
                               capture_output=True, text=True, timeout=60, check=False)
         assert done.returncode == 0, done.stderr[-2000:]
@@ -198,6 +200,22 @@ def test_an_operator_claiming_another_operator_id_is_refused_and_counted(
     assert sim.counters["commands_obeyed"] == obeyed
 
 
+def test_an_emergency_stop_claiming_another_operator_is_obeyed_as_its_sender(
+        deployment: Deployment) -> None:
+    """A stop is never lost: op2's SET that says it is op1 stops the vehicle, in op2's
+    name (so op1's authority cannot be borrowed to clear it), and op2 can clear it."""
+    runtime = deployment.runtime
+    key = "emergency stops taken as their sender"
+    before = runtime.counters[key]
+    events = deployment.operator(deployment.files(deployment.ours, OPERATOR, "op2"),
+                                 write_as="op2", claim="op1", stop=True)
+    stopped = _event(events, "stopped")
+    assert stopped is not None, events
+    assert stopped["status"]["emergency_operator"] == "op2", stopped
+    assert runtime.counters[key] > before
+    assert _event(events, "cleared"), events
+
+
 def test_a_read_only_identity_cannot_create_a_command_writer(deployment: Deployment) -> None:
     events = deployment.operator(deployment.files(deployment.ours, "observer", "mon"),
                                  write_as="mon")
@@ -237,8 +255,13 @@ def test_a_station_without_security_and_the_secure_relay_never_talk(
 def test_relay_reads_commands_only_from_listed_operators_partitions(
         deployment: Deployment) -> None:
     bridge = deployment.runtime.publisher
-    partitions = sorted({s.partition for s in bridge._subscriptions})
+    # every command topic is read only in the listed operators' partitions (RelayStatus,
+    # from the other relays, in the relay's own)
+    partitions = sorted({s.partition for s in bridge._subscriptions
+                         if s.spec.name != "RelayStatus"})
     assert partitions == ["operator.op1", "operator.op2"]
+    assert {s.partition for s in bridge._subscriptions if s.spec.name == "RelayStatus"} \
+        == {None}
     assert bridge.secure
 
 
@@ -281,4 +304,109 @@ def test_a_revoked_operator_never_matches_a_relay_with_the_new_list(
     finally:
         stop.set()
         writer.join(5)
+        relay.close()
+
+
+class LoopbackCapture:
+    """Every frame on the loopback interface while it runs, searched for ``marker``: a raw
+    AF_PACKET socket (root or CAP_NET_RAW), as tcpdump would capture it."""
+
+    def __init__(self, marker: bytes) -> None:
+        try:
+            self._sock = socket.socket(socket.AF_PACKET, socket.SOCK_RAW,
+                                       socket.htons(0x0003))  # ETH_P_ALL
+        except (PermissionError, AttributeError) as exc:
+            pytest.skip(f"capturing loopback traffic needs a raw socket (root): {exc}")
+        self._sock.bind(("lo", 0))
+        self._sock.settimeout(0.2)
+        self.marker = marker
+        self.rtps_frames = 0  # UDP datagrams of DDS (RTPS), any participant's
+        self.with_marker = 0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            try:
+                frame = self._sock.recv(1 << 16)
+            except TimeoutError:
+                continue
+            # Ethernet (14) + IPv4 without options (20) + UDP (8): RTPS starts with "RTPS"
+            if frame[23:24] == b"\x11" and frame[42:46] == b"RTPS":
+                self.rtps_frames += 1
+            if self.marker in frame:
+                self.with_marker += 1
+
+    def stop(self) -> LoopbackCapture:
+        self._stop.set()
+        self._thread.join(5)
+        self._sock.close()
+        return self
+
+
+def _marker() -> str:
+    return f"zq{uuid.uuid4().hex}"  # in no other traffic: only where these tests put it
+
+
+def test_encrypted_on_the_wire_a_command_never_appears_in_plaintext(
+        deployment: Deployment) -> None:
+    """op1 claims a distinctive operator_id: its commands cross to the relay (which refuses
+    them and says so in ControlStatus, back across the wire), and no frame on loopback
+    carries those bytes."""
+    marker = _marker()
+    key = "commands refused: operator_id is not the sender"
+    before = deployment.runtime.counters[key]
+    capture = LoopbackCapture(marker.encode())
+    try:
+        events = deployment.operator(deployment.files(deployment.ours, OPERATOR, "op1"),
+                                     write_as="op1", claim=marker)
+    finally:
+        capture.stop()
+    control = _event(events, "control")
+    assert control is not None, events
+    assert f"operator_id '{marker}' refused: sent by op1" in control["status"]["last_rejection"]
+    assert deployment.runtime.counters[key] > before  # the commands did reach the relay
+    assert capture.rtps_frames > 50, "the capture saw the DDS traffic"
+    assert capture.with_marker == 0, "a command's payload appeared in plaintext"
+
+
+def test_without_security_the_same_command_is_in_plaintext_on_the_wire(
+        loopback_cyclone: str) -> None:
+    """The control for the test above: the same operator station without DDS Security, and
+    a plain participant in this process publishing a vehicle's pose and reading the
+    station's commands."""
+    from edge_vis.dds import DdsBridge
+
+    marker = _marker()
+    domain, partition = 140 + os.getpid() % 30, f"edge-vis-plain-{uuid.uuid4().hex[:8]}"
+    relay = DdsBridge(domain, (partition,))
+    relay.subscribe(["ControlRequest"], partition="operator.op1")
+    stop = threading.Event()
+    received: list[dict[str, Any]] = []
+
+    def publish() -> None:
+        while not stop.is_set():
+            relay.publish("GlobalPose", {"vehicle_id": "ugv-plain", "latitude": 1.0,
+                                         "longitude": 2.0, "altitude": 0.0, "roll": 0.0,
+                                         "pitch": 0.0, "yaw": 0.0, "timestamp_ms": 0})
+            received.extend(sample for _, sample in relay.take())
+            time.sleep(0.1)
+
+    writer = threading.Thread(target=publish, daemon=True)
+    capture = LoopbackCapture(marker.encode())
+    writer.start()
+    try:
+        dep = Deployment.__new__(Deployment)
+        dep.domain, dep.partition = domain, partition
+        events = dep.operator(None, write_as="op1", claim=marker)
+    finally:
+        capture.stop()
+        stop.set()
+        writer.join(5)
+    try:
+        assert _event(events, "pose"), events
+        assert any(s["operator_id"] == marker for s in received), received
+        assert capture.with_marker > 0, "the command's bytes were expected in plaintext"
+    finally:
         relay.close()

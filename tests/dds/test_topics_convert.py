@@ -82,7 +82,7 @@ def test_kinds_decide_direction() -> None:
         "JointCommand", "EndEffectorCommand", "DeviceCommand", "PlatformCommand",
         "VectorCommand", "AccelerationLimitCommand", "PoseCommand", "EmergencyCommand",
         "ManagementCommand",
-        "PlanQuery", "PathSegmentPlan", "MissionSpoolCommand",
+        "PlanQuery", "PathSegmentPlan", "MissionSpoolCommand", "ManipulatorPlan",
         "SensorCommand",
         # IOP and UGV
         "HandoffRequest", "HandoffResponse", "CostMapRequest", "NoGoZoneCommand",
@@ -236,7 +236,7 @@ def test_key_of_builds_a_key_only_sample() -> None:
     pose = converter_for(model.GlobalPose).key_of("ugv1", "GlobalPose")
     assert pose.vehicle_id == "ugv1"
     link = converter_for(model.LinkStatus)
-    assert link.key_of({"link": "radio", "vehicle_id": ""}).link == "radio"
+    assert link.key_of({"link": "radio", "vehicle_id": "", "relay": "201.1.1"}).link == "radio"
     with pytest.raises(EncodeError, match="give them as a dict"):
         link.key_of("radio", "LinkStatus")
 

@@ -123,3 +123,19 @@ def test_bundle_joins_dds(relay_box: tuple[Path, dict[str, str]]) -> None:
                "--link", "udp://127.0.61.22:0?multicast=off")
     assert ran.returncode == 0, ran.stderr
     assert "publishing" in ran.stderr and "stopped" in ran.stderr
+
+
+def test_bundle_has_dds_security_exactly_when_its_build_environment_does(
+    relay_box: tuple[Path, dict[str, str]]
+) -> None:
+    """Built from .venv-secure the bundle carries the binding built against Debian's Cyclone
+    DDS (loaded from the relay's system), never the PyPI wheel of the same version."""
+    box, env = relay_box
+    secure_qos = pytest.importorskip("edge_vis.dds.secure_qos")
+    code = ("import cyclonedds.core\n"
+            "from edge_vis.dds.secure_qos import security_available\n"
+            "assert '.shiv' in cyclonedds.core.__file__, cyclonedds.core.__file__\n"
+            "print('security', security_available())")
+    done = _run(box, dict(env, SHIV_INTERPRETER="1"), "-c", code)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == f"security {secure_qos.security_available()}"

@@ -80,6 +80,18 @@ def test_diff_names_each_changed_setting_and_its_fate() -> None:
     assert kept.discovery.period == 2.0 and kept.report_rates["ReportGlobalPose"] == 2.0
 
 
+def test_a_relays_preference_reloads_but_not_its_name() -> None:
+    old = _profile()
+    new = dataclasses.replace(old, serving=dataclasses.replace(
+        old.serving, preference=1.0, prefer=("ugv-1",), relay_name="shore"))
+    changes = {c.key: c.outcome for c in diff_profiles(old, new)}
+    assert changes == {"serving.preference": APPLIED, "serving.prefer": APPLIED,
+                       "serving.relay_name": RESTART}
+    kept = effective_profile(old, new)
+    assert kept.serving.preference == 1.0 and kept.serving.prefer == ("ugv-1",)
+    assert kept.relay_name == old.relay_name
+
+
 def test_same_profile_means_no_changes() -> None:
     assert diff_profiles(_profile(), _profile()) == []
 

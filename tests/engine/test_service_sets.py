@@ -10,7 +10,7 @@ import pytest
 
 from edge_vis.errors import EncodeError
 from edge_vis.jaus.address import JausAddress
-from edge_vis.kit.actions import SendMessage
+from edge_vis.kit.actions import Publish, SendMessage
 from edge_vis.shell.relay import _code_of
 
 from .conftest import Harness, profile, sent
@@ -105,3 +105,43 @@ def test_deadman_stop_keeps_the_service_set() -> None:
     stop = slot.take(2.0)
     assert stop is not None and stop.service_set == "manipulator"
     assert dict(stop.fields) == {"element_uid": 0}
+
+
+def test_one_component_with_both_list_drivers_reports_each_active_element(
+        catalogue: Any) -> None:
+    """Each set's ReportActiveElement is asked for with its own query and reaches the
+    translator of its set; the List Manager's reports reach both."""
+    h = _harness(catalogue)
+    h.advance(1.0)
+    creates = [catalogue.decode(a.fields["query_message"])
+               for a in sent(h.log, "CreateEvent", ROBOT)]
+    assert {q.code for q in creates if q.name == "QueryActiveElement"} == {0x241E, 0x261E}
+    out = h.sample("ManipulatorPlan", {"vehicle_id": VID, "operator_id": "op1", "plan_id": "arm",
+                                       "mode": "joint_positions",
+                                       "targets": [{"values": [0.1]}, {"values": [0.2]}]})
+    out += h.sample("WaypointPlan", {"vehicle_id": VID, "operator_id": "op1", "plan_id": "p",
+                                     "frame": "GLOBAL", "speed": 2.0,
+                                     "waypoints": [{"latitude": 1.0, "longitude": 2.0}] * 2})
+    # each loader's requests answered in turn: each waits for its own request IDs
+    out += h.advance(0.2)
+    for _ in range(10):
+        requests = [a for a in out if isinstance(a, SendMessage)
+                    and a.name in ("DeleteElement", "SetElement")]
+        if not requests:
+            break
+        out = []
+        for request in requests:
+            out += h.deliver(ROBOT, "ConfirmElementRequest",
+                             {"request_id": request.fields["request_id_rec"]["request_id"]})
+        out += h.advance(0.2)
+    assert {a.service_set for a in sent(h.log, "ExecuteList", ROBOT)} == {"mobility",
+                                                                         "manipulator"}
+    for code, topic, member in ((0x461E, "ManipulatorPlanStatus", "active_target"),
+                                (0x441E, "MissionStatus", "active_waypoint")):
+        payload = catalogue.encode(code, {"element_uid": 2})
+        out = h.deliver_payload(ROBOT, payload)
+        assert [(a.topic, a.sample[member]) for a in out if isinstance(a, Publish)] == \
+            [(topic, 1)]
+    out = h.deliver(ROBOT, "ReportElementList", {"element_list": [{"element_uid": 1}]})
+    assert {a.topic for a in out if isinstance(a, Publish)} == {"VehiclePlan",
+                                                                "ManipulatorList"}

@@ -34,7 +34,8 @@ def test_discovery_answers_like_a_subsystem(wire: Wire) -> None:
             for c in n["component_list"] for s in c["service_list"]]
     assert uris == ["urn:jaus:jss:mobility:PrimitiveDriver",
                     "urn:jaus:jss:mobility:GlobalWaypointListDriver",
-                    "urn:jaus:jss:mobility:GlobalPathSegmentDriver"]
+                    "urn:jaus:jss:mobility:GlobalPathSegmentDriver",
+                    "urn:jaus:jss:mobility:LocalPathSegmentDriver"]
     # a component that does not offer Discovery stays silent, as real ones do
     assert wire.send("QueryIdentification", {"query_type": 2}, to=PLATFORM) == []
 

@@ -34,12 +34,14 @@ CASES = [
         "jaus_address": "126.1.199", "vehicle_type": "VEHICLE",
         "services": [{"uri": "urn:jaus:jss:mobility:LocalPoseSensor", "version": "1.0"}]},
         id="identification"),
-    pytest.param("online", {}, "VehicleStatus", {
+    pytest.param("online", {"relay": "201.1.1"}, "VehicleStatus", {
         "vehicle_id": "SimulatedVehicle-126", "state": "STANDBY", "link": "radio",
-        "online": True, "last_seen_ms": 1_700_000_005_000, **NO_ESTOP}, id="online"),
+        "online": True, "last_seen_ms": 1_700_000_005_000, **NO_ESTOP, "relay": "201.1.1"},
+                 id="online"),
     pytest.param("offline", {"online": False, "state": "OFFLINE"}, "VehicleStatus", {
         "vehicle_id": "SimulatedVehicle-126", "state": "OFFLINE", "link": "radio",
-        "online": False, "last_seen_ms": 1_700_000_005_000, **NO_ESTOP}, id="offline"),
+        "online": False, "last_seen_ms": 1_700_000_005_000, **NO_ESTOP, "relay": ""},
+                 id="offline"),
     pytest.param("control", {}, "ControlStatus", {
         "vehicle_id": "SimulatedVehicle-126", "operator_id": "", "authority": 0,
         "state": "NOT_CONTROLLED", "rejected_commands": 0, "last_rejection": "",
@@ -80,7 +82,8 @@ CASES = [
                  "VehicleStatus", {
         "vehicle_id": "SimulatedVehicle-126", "state": "EMERGENCY", "link": "radio",
         "online": True, "last_seen_ms": 1_700_000_005_000, "emergency": True,
-        "emergency_operator": "op1", "emergency_reason": "set by op1"}, id="emergency"),
+        "emergency_operator": "op1", "emergency_reason": "set by op1", "relay": ""},
+                 id="emergency"),
 ]
 
 
@@ -98,6 +101,13 @@ def test_status_and_heartbeat_publish_vehicle_status(name: str) -> None:
     actions = CoreTranslator().on_message(name, {"status": 2, "reserved": 0}, ctx())
     assert [a.topic for a in actions if isinstance(a, Publish)] == ["VehicleStatus"]
     assert actions[0].sample["state"] == "STANDBY"
+
+
+def test_a_relay_taking_a_vehicle_over_publishes_its_whole_state() -> None:
+    actions = CoreTranslator().on_vehicle("serving", ctx(relay="202.1.1"))
+    assert [a.topic for a in actions] == ["VehicleIdentification", "VehicleStatus",
+                                          "ControlStatus"]
+    assert actions[1].sample["relay"] == "202.1.1"
 
 
 def test_status_change_is_not_published_twice() -> None:

@@ -162,7 +162,7 @@ def test_pan_tilt_and_end_effector_reports() -> None:
 
 def test_declarations() -> None:
     tr = TR()
-    assert set(tr.subscribes) == {"JointCommand", "EndEffectorCommand"}
-    assert {"JointState", "JointSpecification", "EndEffectorPose",
-            "EndEffectorVelocity"} == set(tr.publishes)
+    assert set(tr.subscribes) == {"JointCommand", "EndEffectorCommand", "ManipulatorPlan"}
+    assert {"JointState", "JointSpecification", "EndEffectorPose", "EndEffectorVelocity",
+            "ManipulatorPlanStatus", "ManipulatorList"} == set(tr.publishes)
     assert all(s.startswith("urn:jaus:jss:manipulator:") for s in tr.controlled_services)

@@ -153,7 +153,7 @@ def test_receive_images_publishes_the_image_on_dds(tmp_path: Path, make_file, mo
             products = bridge.reader("ImageProduct")
             data = bridge.reader("ImageData")
             # ImageData is volatile: be matched with the receiver's writer before it writes.
-            wait_for(lambda: data._reader.get_matched_publications(), 10, "DDS discovery")
+            wait_for(data.matched_writers, 10, "DDS discovery")
             result = UdtBulkChannel.send_image(path, address, vehicle_id="uuv9")
             assert result.ok
             (product,) = products.collect(1, 10.0)

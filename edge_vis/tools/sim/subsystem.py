@@ -50,7 +50,15 @@ from typing import Any
 from edge_vis.catalogue import Catalogue, Message, default_catalogue
 from edge_vis.errors import DecodeError, EncodeError
 from edge_vis.jaus.address import BROADCAST, JausAddress
-from edge_vis.tools.sim import arm, iop_sim, scripted, self_report, sensing_control, spooling
+from edge_vis.tools.sim import (
+    arm,
+    iop_sim,
+    local_segments,
+    scripted,
+    self_report,
+    sensing_control,
+    spooling,
+)
 from edge_vis.tools.sim import components as svc
 from edge_vis.tools.sim.components import ComponentSpec
 from edge_vis.tools.sim.events import EVERY_CHANGE, PERIODIC, EventTable, Subscription
@@ -794,7 +802,8 @@ class SimVehicle:
             if data.get("format") == 0:
                 inner = self._decode_query(data["data"])
                 if inner is not None and inner.fields is not None:
-                    waypoint = target_of(inner.code, inner.fields)
+                    waypoint = target_of(inner.code, inner.fields) or \
+                        local_segments.target_of(inner.code, inner.fields, self.spec.origin)
             waypoints.append(waypoint)
         code = self.waypoints.set_elements(records, waypoints)
         if code:
@@ -968,6 +977,8 @@ _QUERIES: dict[str, tuple[str, str, Builder]] = {
                            SimVehicle._report_active_element),
     "QueryTravelSpeed": (svc.WAYPOINT_LIST_DRIVER, "ReportTravelSpeed",
                          SimVehicle._report_travel_speed),
+    "QueryLocalPathSegment": (svc.LOCAL_PATH_SEGMENT_DRIVER, "ReportLocalPathSegment",
+                              local_segments.report),
     "QueryGlobalPathSegment": (svc.PATH_SEGMENT_DRIVER, "ReportGlobalPathSegment",
                                SimVehicle._report_path_segment),
     "QueryMissionStatus": (svc.MISSION_SPOOLER, "ReportMissionStatus",
