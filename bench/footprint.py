@@ -4,6 +4,7 @@
     .venv/bin/python bench/footprint.py --settle 20 --seconds 3   # shorter
     .venv/bin/python bench/footprint.py --bundle dist/edge-vis.pyz --no-dds
     .venv/bin/python bench/footprint.py --only forwarder --callgrind   # + instructions/msg
+    .venv/bin/python bench/footprint.py --only forwarder --burst 0 --cycles 2 --paths serial:2
 
 Parts, each in its own process so that one does not colour another's memory:
 
@@ -23,7 +24,10 @@ Parts, each in its own process so that one does not colour another's memory:
    ``--burst`` messages as fast as this process can send them (at most 1,024 in flight,
    so the kernel drops none), the peak resident memory during it (``VmHWM`` after
    ``clear_refs``), and the resident memory over ``--settle`` seconds after it
-   (``VmRSS``), against the idle figure before.
+   (``VmRSS``), against the idle figure before. udp->serial and the floor are measured
+   again with each UDP receive cycle of ``--cycles`` (the link's ``cycle`` option; the
+   floor reads on the same timer), and every path reports the time from send to arrival
+   at the sink (p50 / p99) at each rate. ``--paths serial:5,bare:0`` picks forwarders.
 2. **JAUS report -> DDS sample**: ``bench/engine.py``'s pipeline (router, catalogue,
    engine, mobility translator, ``DdsBridge.publish`` to a real Cyclone writer) fed
    ReportGlobalPose at a paced 1,000 reports/s; CPU = ``time.process_time`` (all threads,
@@ -164,8 +168,9 @@ FWD_RELAY = JausAddress(200, 1, 1)
 BURST_WINDOW = 1024
 
 
-def forwarder_main(in_port: int, out: str) -> None:
-    """The process under test: a router between a UDP link and ``out``.
+def forwarder_main(in_port: int, out: str, cycle: float = 0.0) -> None:
+    """The process under test: a router between a UDP link and ``out``; ``cycle`` is
+    the UDP link's option of that name (and the bare loop's equivalent).
 
     Reads commands from stdin: ``usage`` answers ``utime stime`` (seconds) on stdout;
     ``reset`` clears the peak resident memory; end of file stops it.
@@ -195,7 +200,8 @@ def forwarder_main(in_port: int, out: str) -> None:
             await bare(loop, done)
             return
         node = RouterNode(Router([FWD_RELAY]), [
-            create_link(f"udp://{FWD_IP}:{in_port}?multicast=off", name="in"),
+            create_link(f"udp://{FWD_IP}:{in_port}?multicast=off"
+                        + (f"&cycle={cycle:g}" if cycle else ""), name="in"),
             create_link(out, name="out"),
         ])
         await node.start()
@@ -219,18 +225,33 @@ def forwarder_main(in_port: int, out: str) -> None:
         os.set_blocking(fd, False)
         buffer = memoryview(bytearray(65535))
 
-        def readable() -> None:
+        def drain() -> int:
+            """Read every datagram waiting; one write for all (as the serial link)."""
+            out: list[bytes] = []
             while True:
                 try:
                     size, _ = sock.recvfrom_into(buffer)
                 except BlockingIOError:
-                    return
-                os.write(fd, b"\x10\x01\x02" + buffer[:size].tobytes())
+                    break
+                out.append(b"\x10\x01\x02" + buffer[:size].tobytes())
+            if out:
+                os.write(fd, b"".join(out))
+            return len(out)
+
+        def readable() -> None:  # with a cycle: as UdpLink, read on a timer while busy
+            if drain() and cycle:
+                loop.remove_reader(sock.fileno())
+                loop.call_later(cycle, tick)
+
+        def tick() -> None:
+            if drain():
+                loop.call_later(cycle, tick)
+            else:
+                loop.add_reader(sock.fileno(), readable)
 
         loop.add_reader(sock.fileno(), readable)
         print("ready", flush=True)
         await done
-        loop.remove_reader(sock.fileno())
         sock.close()
         os.close(fd)
 
@@ -240,7 +261,7 @@ def forwarder_main(in_port: int, out: str) -> None:
 class Forwarder:
     """A forwarder process, its sink and the traffic this process sends it."""
 
-    def __init__(self, kind: str, wrapper: Sequence[str] = ()) -> None:
+    def __init__(self, kind: str, wrapper: Sequence[str] = (), cycle: float = 0.0) -> None:
         self.kind = kind
         with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
             s.bind((FWD_IP, 0))
@@ -266,7 +287,8 @@ class Forwarder:
             out = f"udp://{FWD_IP}:0?multicast=off&peers={SINK_IP}:{udp.getsockname()[1]}"
         self.sink = Sink(udp, master)
         self.proc = subprocess.Popen(
-            [*wrapper, sys.executable, __file__, "--forwarder", str(self.in_port), out],
+            [*wrapper, sys.executable, __file__, "--forwarder", str(self.in_port), out,
+             str(cycle)],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
         assert self.proc.stdout is not None and self.proc.stdin is not None
         assert self.proc.stdout.readline().strip() == "ready"
@@ -282,24 +304,48 @@ class Forwarder:
 
     def offer(self, rate: float, seconds: float) -> tuple[int, float]:
         """Send at ``rate`` for ``seconds``; return (delivered, forwarder CPU seconds)."""
-        self.run += 1
+        got, cpu, _ = self.offer_timed(rate, seconds)
+        return got, cpu
+
+    def offer_timed(self, rate: float, seconds: float) -> tuple[int, float, list[int]]:
+        """Send at ``rate`` for ``seconds``; return (delivered, forwarder CPU seconds,
+        each message's time from send to arrival at the sink in ns; none for the bare
+        loop, whose frames carry no CRC). The send time in each payload also keeps the
+        runs distinct for the duplicate filter."""
         total = int(rate * seconds)
-        self.sink.count()
+        if self.kind == "bare":
+            self.run += 1
+            self.sink.count()
+        else:
+            self.sink.drain()
         cpu0 = self.cpu()
         start = time.monotonic()
-        sent = received = 0
+        sent = counted = 0
+        latencies: list[int] = []
         while sent < total:
             due = start + sent / rate
             wait = due - time.monotonic()
             if wait > 0:
                 ready, _, _ = select.select([self.sink], [], [], wait)
                 if ready:
-                    received += self.sink.count()
+                    counted += self._collect(latencies)
                 continue
-            self.tx.sendto(message(sent, self.run), (FWD_IP, self.in_port))
+            self.tx.sendto(message(sent, time.perf_counter_ns()), (FWD_IP, self.in_port))
             sent += 1
-        received += self._settle(total - received)
-        return received, self.cpu() - cpu0
+        while counted < total:  # what is still in flight (up to 1 s of silence)
+            ready, _, _ = select.select([self.sink], [], [], 1.0)
+            if not ready:
+                break
+            counted += self._collect(latencies)
+        return counted, self.cpu() - cpu0, latencies
+
+    def _collect(self, latencies: list[int]) -> int:
+        if self.kind == "bare":
+            return self.sink.count()
+        arrived = time.perf_counter_ns()
+        stamps = self.sink.drain()
+        latencies += [arrived - s for s in stamps]
+        return len(stamps)
 
     def burst(self, total: int) -> tuple[int, float]:
         """Send ``total`` messages as fast as possible (<= BURST_WINDOW in flight);
@@ -346,16 +392,37 @@ class Forwarder:
             os.close(self._slave)
 
 
+def percentile(values: list[int], q: float) -> float:
+    if not values:
+        return float("nan")
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(len(ordered) * q))]
+
+
 def rss(pid: int) -> float:
     """Resident memory of ``pid`` in MiB."""
     return memory(pid)["VmRSS"] / 1024
 
 
+KINDS = {"serial": "udp->serial", "udp": "udp->udp",
+         "bare": "floor: bare asyncio udp->pty loop"}
+
+
+def paths(args: argparse.Namespace) -> list[tuple[str, float, str]]:
+    """(kind, cycle in s, label) of every forwarder measured: each path without a cycle,
+    then udp->serial and the floor with each of ``--cycles``."""
+    out = [(kind, 0.0, label) for kind, label in KINDS.items()]
+    for ms in (c for c in args.cycles if c > 0):
+        out += [(kind, ms / 1000, f"{KINDS[kind]}, cycle={ms:g} ms")
+                for kind in ("serial", "bare")]
+    return [p for p in out if not args.paths or p[2] in args.paths
+            or f"{p[0]}:{p[1] * 1000:g}" in args.paths]
+
+
 def forwarder_part(args: argparse.Namespace) -> list[tuple[str, str, str]]:
     rows: list[tuple[str, str, str]] = []
-    for kind, label in (("serial", "udp->serial"), ("udp", "udp->udp"),
-                        ("bare", "floor: bare asyncio udp->pty loop")):
-        fwd = Forwarder(kind)
+    for kind, cycle, label in paths(args):
+        fwd = Forwarder(kind, cycle=cycle)
         try:
             time.sleep(1.0)
             cpu0, t0 = fwd.cpu(), time.monotonic()
@@ -364,13 +431,17 @@ def forwarder_part(args: argparse.Namespace) -> list[tuple[str, str, str]]:
             idle_rss = rss(fwd.proc.pid)
             rows.append((f"{label}: CPU idle", f"{idle * 100:.2f} % of a core", ""))
             for rate in (1000, 2000):
-                got, cpu = fwd.offer(rate, args.seconds)
+                got, cpu, latencies = fwd.offer_timed(rate, args.seconds)
                 share = cpu / args.seconds
                 note = f"{got}/{int(rate * args.seconds)} delivered"
                 rows.append((f"{label}: CPU at {rate:,} msg/s",
                              f"{share * 100:.2f} % of a core, {cpu / max(got, 1) * 1e6:.1f} "
                              f"us/msg", note))
-            if kind != "serial":
+                if latencies:
+                    rows.append((f"{label}: send to sink at {rate:,} msg/s, p50 / p99",
+                                 f"{percentile(latencies, 0.5) / 1e6:.3f} / "
+                                 f"{percentile(latencies, 0.99) / 1e6:.3f} ms", ""))
+            if kind != "serial" or cycle or args.burst <= 0:
                 continue
             rows.append((f"{label}: resident memory idle", f"{idle_rss:.1f} MiB", ""))
             Path(f"/proc/{fwd.proc.pid}/clear_refs").write_text("5")  # resets VmHWM
@@ -404,21 +475,26 @@ def instructions_part(args: argparse.Namespace) -> list[tuple[str, str, str]]:
 
     The forwarder runs under ``valgrind --tool=callgrind``; its counters are zeroed, 500
     messages are offered at 50 msg/s (slow enough that each arrives alone, as at a
-    moderate rate on real hardware) and the counters are dumped. User-space instructions
+    moderate rate on real hardware) and the counters are dumped. A path with a cycle runs
+    with twenty times its cycle, so that each cycle reads as many datagrams as at 1,000
+    msg/s (valgrind could not keep up with 1,000 msg/s itself; the cycle option's upper
+    bound, 0.1 s, limits this to cycles up to 5 ms). User-space instructions
     only: the kernel's share (system calls) is not counted.
     """
     rows: list[tuple[str, str, str]] = []
-    for kind, label in (("serial", "udp->serial"), ("udp", "udp->udp"),
-                        ("bare", "floor: bare asyncio udp->pty loop")):
+    for kind, cycle, label in paths(args):
+        rate = 50
+        if cycle * 20 > 0.1:
+            continue
         with tempfile.TemporaryDirectory(prefix="edge-vis-callgrind-") as tmp:
             out = Path(tmp, "callgrind.out")
             fwd = Forwarder(kind, ("valgrind", "--tool=callgrind", "--quiet",
-                                   f"--callgrind-out-file={out}.%p"))
+                                   f"--callgrind-out-file={out}.%p"), cycle=cycle * 20)
             try:
-                fwd.offer(50, 2)  # warm up
+                fwd.offer(rate, 2)  # warm up
                 subprocess.run(["callgrind_control", "-z", str(fwd.proc.pid)], check=True,
                                capture_output=True)
-                got, _ = fwd.offer(50, 10)
+                got, _ = fwd.offer(rate, 500 / rate)
                 subprocess.run(["callgrind_control", "-d", str(fwd.proc.pid)], check=True,
                                capture_output=True)
                 dumps = sorted(Path(tmp).glob(f"callgrind.out.{fwd.proc.pid}.*"))
@@ -428,7 +504,8 @@ def instructions_part(args: argparse.Namespace) -> list[tuple[str, str, str]]:
         total = next(int(line.split()[1]) for line in text.splitlines()
                      if line.startswith(("summary:", "totals:")))
         rows.append((f"{label}: instructions per message (callgrind)",
-                     f"{total / max(got, 1):,.0f}", f"{got} messages at 50 msg/s"))
+                     f"{total / max(got, 1):,.0f}", f"{got} messages at {rate} msg/s"
+                     + (f", cycle {cycle * 20000:g} ms" if cycle else "")))
     return rows
 
 
@@ -568,7 +645,7 @@ def relay_part(args: argparse.Namespace) -> tuple[list[tuple[str, str, str]], bo
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["--forwarder"]:
-        forwarder_main(int(argv[1]), argv[2])
+        forwarder_main(int(argv[1]), argv[2], float(argv[3]) if len(argv) > 3 else 0.0)
         return 0
     if argv[:1] == ["--engine"]:
         engine_main(float(argv[1]))
@@ -582,6 +659,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--bundle", type=Path, help="measure this edge-vis.pyz as the relay")
     parser.add_argument("--only", choices=("forwarder", "engine", "relay"),
                         help="run one part only")
+    parser.add_argument("--cycles", type=lambda t: [float(x) for x in t.split(",") if x],
+                        default=[1.0, 5.0],
+                        help="UDP link cycles to measure, ms, comma separated (0: none)")
+    parser.add_argument("--paths", type=lambda t: t.split(","), default=[],
+                        help="forwarder paths to measure, e.g. serial:0,serial:5,bare:0")
     parser.add_argument("--callgrind", action="store_true",
                         help="also count the forwarder's instructions per message (valgrind)")
     args = parser.parse_args(argv)

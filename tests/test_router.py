@@ -296,3 +296,52 @@ def test_urgent_on_an_unpaced_link_goes_out_flagged() -> None:
     (plain,) = sends(router.send(pkt(ME, ROBOT), now=0.0))
     (urgent,) = sends(router.send(pkt(ME, ROBOT), now=0.0, urgent=True))
     assert not plain.urgent and urgent.urgent and urgent.peer == UDP_PEER
+
+
+# -- batches: several packets of one stream in one receive call (a link's read cycle) -------
+def test_a_batch_of_one_stream_is_forwarded_in_order_and_duplicates_in_it_dropped() -> None:
+    router = make_router()
+    router.set_relay("udp", "radio")
+    router.add_route(ROBOT, "radio", RADIO)
+    stream = [pkt(OCU, ROBOT, seq=s, payload=b"\x05\x04" + bytes([s])) for s in range(1, 6)]
+    batch = [*stream[:3], stream[2], *stream[3:], stream[0]]  # two radio retries in it
+    (out,) = sends(router.receive("udp", UDP_PEER, batch, now=0.0))
+    assert (out.link, out.peer) == ("radio", RADIO)
+    assert [p.sequence for p in out.packets] == [1, 2, 3, 4, 5]
+    assert router.counters["dropped: duplicate"] == 2
+    assert sends(router.receive("udp", UDP_PEER, stream, now=0.5)) == []  # all seen
+    assert router.counters["dropped: duplicate"] == 7
+    (again,) = sends(router.receive("udp", UDP_PEER, stream, now=3.0))  # window passed
+    assert [p.sequence for p in again.packets] == [1, 2, 3, 4, 5]
+    assert router.stats().counters["forwarded"] == 10
+
+
+def test_a_route_learned_inside_a_batch_applies_to_the_rest_of_it() -> None:
+    router = make_router()
+    router.set_relay("udp", "radio")
+    router.receive("radio", RADIO, [pkt(ROBOT, OCU, seq=1)], now=0.0)  # ROBOT: radio
+    # in one read: a command to ROBOT, then ROBOT itself heard on the UDP side (it moved
+    # networks), then the next command: that one must not go to the radio any more
+    batch = [pkt(OCU, ROBOT, seq=1), pkt(ROBOT, OCU, seq=2), pkt(OCU, ROBOT, seq=3)]
+    (out,) = sends(router.receive("udp", UDP_PEER, batch, now=0.1))
+    assert out.link == "radio" and [p.sequence for p in out.packets] == [1]
+    route = router.lookup(ROBOT)
+    assert route is not None and (route.link, route.peer) == ("udp", UDP_PEER)
+    assert router.counters["dropped: destination on arrival link"] == 2
+
+
+def test_a_batch_within_a_paced_links_budget_leaves_at_once_and_is_charged() -> None:
+    router = Router([ME])
+    # 80,000 bit/s: a 500-byte burst allowance; each packet costs 6 + 14 + 29 = 49 bytes
+    router.add_link("radio", bandwidth_bps=80_000)
+    router.add_link("lan")
+    router.set_relay("lan", "radio")
+    router.add_route(ROBOT, "radio", RADIO)
+    batch = [pkt(OCU, ROBOT, seq=s, payload=b"\x05\x04" + bytes(4)) for s in range(1, 9)]
+    (out,) = sends(router.receive("lan", UDP_PEER, batch, now=0.0))
+    assert [p.sequence for p in out.packets] == list(range(1, 9))
+    # the budget paid for them: the next batch (the allowance spent) waits in the queue
+    more = [pkt(OCU, ROBOT, seq=s, payload=b"\x05\x04" + bytes(4)) for s in range(9, 17)]
+    (rest,) = sends(router.receive("lan", UDP_PEER, more, now=0.0))
+    assert 0 < len(rest.packets) < 8
+    assert router.stats().links["radio"].queued_bytes == 49 * (8 - len(rest.packets))

@@ -23,6 +23,7 @@ import os
 import signal
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from edge_vis.config import (
     LinkProfile,
@@ -34,9 +35,11 @@ from edge_vis.config import (
 from edge_vis.errors import ConfigError
 from edge_vis.jaus.address import JausAddress
 from edge_vis.shell.memory import tune_allocator
-from edge_vis.shell.mirror import Mirror
 from edge_vis.shell.relay import Runtime
 from edge_vis.shell.service import Supervisor
+
+if TYPE_CHECKING:
+    from edge_vis.shell.mirror import Mirror
 
 NAME = "run"
 HELP = "run the relay: discover JAUS vehicles and translate them to and from DDS"
@@ -130,8 +133,10 @@ def refuse_half_secured(profile: RelayProfile, *, dds: bool = True) -> None:
 
 
 def _mirror(args: argparse.Namespace) -> Mirror | None:
-    if args.mirror_udp is None and args.mirror_pcap is None:
+    if args.mirror_udp is None and args.mirror_pcap is None:  # the usual case: no import
         return None
+    from edge_vis.shell.mirror import Mirror
+
     return Mirror(udp_port=args.mirror_udp, pcap=args.mirror_pcap)
 
 

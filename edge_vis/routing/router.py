@@ -117,6 +117,27 @@ class DeliveryFailed:
 Action = SendPackets | Deliver | DeliveryFailed
 
 
+class _NewSend:
+    """Builds a :class:`SendPackets` without the frozen dataclass's ``object.__setattr__``
+    per field (one per batch of every relayed packet): same slots, then ``__class__``
+    becomes ``SendPackets`` (as :class:`edge_vis.jaus.transport._Decoded` does)."""
+
+    __slots__ = SendPackets.__slots__  # type: ignore[attr-defined]
+
+    def __init__(self, link: str, peer: Peer | None, packets: tuple[Packet, ...],
+                 urgent: bool) -> None:
+        self.link = link
+        self.peer = peer
+        self.packets = packets
+        self.urgent = urgent
+        self.__class__ = SendPackets  # type: ignore[assignment]
+
+
+def _send_packets(link: str, peer: Peer | None, packets: tuple[Packet, ...],
+                  urgent: bool = False) -> SendPackets:
+    return _NewSend(link, peer, packets, urgent)  # type: ignore[return-value]
+
+
 # -- configuration and state -----------------------------------------------------------
 @dataclass(frozen=True, slots=True)
 class RouterConfig:
@@ -345,14 +366,33 @@ class Router:
         if self._next_sweep is None:
             self._next_sweep = now + self.config.sweep_interval
         counters["received"] += len(packets)
+        relay = self._relay
+        # the fast path: a packet of the same stream (same source and destination objects;
+        # decoded addresses are shared) as the last one forwarded in this call takes that
+        # one's decision; anything that changes the address book ends it
+        fast_source: JausAddress | None = None
+        fast_dest: JausAddress | None = None
+        fast_ids = (0, 0)
+        fast_batch: list[Packet] = []
         for packet in packets:
             source = packet.source
+            dest = packet.destination
+            if source is fast_source and dest is fast_dest and not packet.ack_nak:
+                key = hash((fast_ids, packet.sequence, packet.data_flags, packet.payload))
+                until = seen.get(key)
+                if until is None or until <= now:
+                    if len(seen) < max_duplicates:
+                        seen[key] = expiry
+                        seen_order.append((expiry, key))
+                    else:
+                        counters["duplicate table full"] += 1
+                    fast_batch.append(packet)
+                    continue
             if source in local:
                 counters["dropped: own source"] += 1
                 continue
-            dest = packet.destination
-            key = hash((source.id, dest.id, packet.sequence, packet.data_flags,
-                        packet.payload))
+            ids = (source.id, dest.id)
+            key = hash((ids, packet.sequence, packet.data_flags, packet.payload))
             route = learned.get(source)
             until = seen.get(key)
             if until is not None and until > now:
@@ -374,6 +414,7 @@ class Router:
                         del learned[next(iter(learned))]  # re-learned on its next packet
                         counters["routes forgotten: table full"] += 1
                     learned[source] = Route(link, peer, seen=now)
+                    fast_source = None
                 else:
                     route.seen = now
             if packet.ack_nak in _ACKS:
@@ -395,8 +436,12 @@ class Router:
                 if route is not None:
                     if route.link == link:
                         counters["dropped: destination on arrival link"] += 1
-                    elif (link, route.link) in self._relay:
-                        out.setdefault((route.link, route.peer), []).append(packet)
+                    elif (link, route.link) in relay:
+                        batch = out.setdefault((route.link, route.peer), [])
+                        batch.append(packet)
+                        if not packet.ack_nak:
+                            fast_source, fast_dest, fast_ids = source, dest, ids
+                            fast_batch = batch
                     else:
                         counters["dropped: relay off"] += 1
                     continue
@@ -646,10 +691,16 @@ class Router:
             packets = fits
         if not packets:
             return
-        if state.bandwidth_bps is None and not state.busy and not state.queued_bytes:
-            state.sent += len(packets)
-            actions.append(SendPackets(link, peer, tuple(packets)))
-            return
+        if not state.busy and not state.queued_bytes:
+            rate = state.bandwidth_bps
+            if rate is None:
+                state.sent += len(packets)
+                actions.append(_send_packets(link, peer, tuple(packets)))
+                return
+            if not state.latest_wins and self._within_budget(state, packets, now, rate):
+                state.sent += len(packets)
+                actions.append(_send_packets(link, peer, tuple(packets)))
+                return
         queues = state.queues
         for p in packets:
             cost = state.cost(p)
@@ -666,6 +717,27 @@ class Router:
             self.counters[f"dropped: {reason}"] += 1
         self._drain(state, now, actions)
 
+    @staticmethod
+    def _within_budget(state: _LinkState, packets: Sequence[Packet], now: float,
+                       rate: float) -> bool:
+        """Charge ``packets`` to an idle paced link's budget if the queue would let them
+        all leave now, in this order (one priority, the budget not spent before the
+        last, no more than the queue holds): then they skip the queue, which would change
+        nothing but the cost."""
+        state.refill(now, rate)
+        priority = packets[0].priority & 3
+        overhead = 14 + state.overhead
+        total = 0
+        for p in packets:
+            if (p.priority & 3) != priority:
+                return False
+            total += len(p.payload) + overhead
+        last = len(packets[-1].payload) + overhead
+        if total > state.queue_limit or state.tokens - (total - last) < -1e-9:
+            return False
+        state.tokens -= total
+        return True
+
     def _urgent(self, actions: list[Action], link: str, peer: Peer | None,
                 packets: Sequence[Packet], now: float) -> None:
         """The urgent path: out at once, ahead of the queues; charged to the budget."""
@@ -678,7 +750,7 @@ class Router:
             state.tokens -= sum(state.cost(p) for p in packets)
         state.sent += len(packets)
         self.counters["sent urgently"] += len(packets)
-        actions.append(SendPackets(link, peer, tuple(packets), urgent=True))
+        actions.append(_send_packets(link, peer, tuple(packets), urgent=True))
 
     def _supersede(self, state: _LinkState, peer: Peer | None, packet: Packet) -> None:
         """Remove the queued older copy of what ``packet`` replaces (latest wins)."""
@@ -713,13 +785,13 @@ class Router:
             if rate is not None:
                 state.tokens -= cost
             if batch and peer != batch_peer:
-                actions.append(SendPackets(state.name, batch_peer, tuple(batch)))
+                actions.append(_send_packets(state.name, batch_peer, tuple(batch)))
                 batch = []
             batch_peer = peer
             batch.append(packet)
             state.sent += 1
         if batch:
-            actions.append(SendPackets(state.name, batch_peer, tuple(batch)))
+            actions.append(_send_packets(state.name, batch_peer, tuple(batch)))
 
 
 def _ack(packet: Packet) -> Packet:

@@ -25,7 +25,7 @@ import logging
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable, Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from edge_vis import plugins
 from edge_vis.bandwidth.demands import FleetPlanner
@@ -50,7 +50,9 @@ from edge_vis.routing.link import Link, Peer, create_link
 from edge_vis.routing.router import Deliver, DeliveryFailed, Router, RouterConfig, SendPackets
 from edge_vis.routing.traffic import priority_for
 from edge_vis.shell.memory import release_memory
-from edge_vis.shell.mirror import Mirror
+
+if TYPE_CHECKING:  # the mirror is imported only by a relay that is given one
+    from edge_vis.shell.mirror import Mirror
 
 log = logging.getLogger(__name__)
 
