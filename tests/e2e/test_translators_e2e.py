@@ -249,6 +249,32 @@ def test_iop_platform_and_health(domain_id: int, partition: str) -> None:
     asyncio.run(relay_with(peer, 47, domain_id, partition, body))
 
 
+# ------------------------------------------------------------------------------ hmi
+
+
+def test_hmi_operator_interface_inputs_reach_dds(domain_id: int, partition: str) -> None:
+    """A hand-held controller on the vehicle's JAUS network (Keyboard and AnalogControl
+    services): its key and stick positions reach operator stations as ``HmiInput``."""
+    hmi = "urn:jaus:jss:HMI:"
+    peer = SetPeer(JausAddress(86, 1, 1), (hmi + "Keyboard", hmi + "AnalogControl"),
+                   {"QueryKeyboardAction": lambda f: ("ReportKeyboardAction",
+                                                      {"key": 65, "key_state": 1}),
+                    "QueryAnalogAction": lambda f: ("ReportAnalogAction", {
+                        "reference": f["analog_reference"],
+                        "longitudinal": {"short_integer": -16384},
+                        "yaw": {"byte": 127}})},
+                   name="Pendant")
+
+    async def body(runtime: Runtime, operator: Any) -> None:
+        key = await collect(operator, "HmiInput", lambda s: s["device"] == "keyboard")
+        assert (key["vehicle_id"], key["code"], key["state"]) == ("Pendant-86", 65, "PRESSED")
+        stick = await collect(operator, "HmiInput", lambda s: s["device"] == "analog_1")
+        assert stick["x"] == pytest.approx(-0.5, abs=1e-4) and stick["yaw"] == 1.0
+        assert stick["y"] != stick["y"]  # an axis the device did not report is NaN
+
+    asyncio.run(relay_with(peer, 161, domain_id, partition, body))
+
+
 # ------------------------------------------------------------------------------ generic
 
 
