@@ -37,6 +37,7 @@ from links.udt.transfer import (
     ConnectionLost,
     _close,
     _send_all,
+    listen,
     udt4py,
 )
 
@@ -73,19 +74,7 @@ class ImageServer:
         return tuple(self._listener.address)  # type: ignore[return-value]
 
     def start(self) -> ImageServer:
-        udt = udt4py()
-        sock = udt.UDTSocket()
-        try:
-            sock.UDT_REUSEADDR = True
-            sock.UDT_LINGER = 0
-            if self.max_rate_bps:
-                sock.UDT_MAXBW = max(1, self.max_rate_bps // 8)
-            sock.bind(self._bind)
-            sock.listen(32)
-        except udt.UDTException as exc:
-            sock.close()
-            raise LinkError(f"cannot listen on {self._bind[0]}:{self._bind[1]}: {exc}") from exc
-        self._listener = sock
+        self._listener = listen(self._bind, linger=0, max_rate_bps=self.max_rate_bps or 0)
         t = threading.Thread(target=self._accept_loop, name="udt-serve-accept", daemon=True)
         t.start()
         self._threads.append(t)

@@ -126,6 +126,24 @@ def _pending(sock: Any) -> int:
         return 0
 
 
+def listen(bind: tuple[str, int], *, linger: int, max_rate_bps: int = 0) -> Any:
+    """A UDT socket listening on ``bind``; ``linger`` and the rate cap (bit/s, 0 = none)
+    are inherited by the connections it accepts. :class:`LinkError` names the address."""
+    udt = udt4py()
+    sock = udt.UDTSocket()
+    try:
+        sock.UDT_REUSEADDR = True
+        sock.UDT_LINGER = linger
+        if max_rate_bps:
+            sock.UDT_MAXBW = max(1, max_rate_bps // 8)
+        sock.bind(bind)
+        sock.listen(32)
+    except udt.UDTException as exc:
+        sock.close()
+        raise LinkError(f"cannot listen on {bind[0]}:{bind[1]}: {exc}") from exc
+    return sock
+
+
 def _close(sock: Any) -> None:
     """Close, tolerating a socket another thread closed first (drop_connections)."""
     with contextlib.suppress(udt4py().UDTException):
@@ -606,17 +624,8 @@ class BulkReceiver:
         return tuple(self._listener.address)  # type: ignore[return-value]
 
     def start(self) -> BulkReceiver:
-        udt = udt4py()
-        sock = udt.UDTSocket()
-        try:
-            sock.UDT_REUSEADDR = True
-            sock.UDT_LINGER = 1  # inherited by connections: time to deliver a last ERROR
-            sock.bind(self._bind)
-            sock.listen(32)
-        except udt.UDTException as exc:
-            sock.close()
-            raise LinkError(f"cannot listen on {self._bind[0]}:{self._bind[1]}: {exc}") from exc
-        self._listener = sock
+        # linger, inherited by connections: time to deliver a last ERROR
+        self._listener = listen(self._bind, linger=1)
         t = threading.Thread(target=self._accept_loop, name="udt-accept", daemon=True)
         t.start()
         self._threads.append(t)
