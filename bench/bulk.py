@@ -97,7 +97,7 @@ def radio(folder: Path, size: int, loss: float, lanes: int, max_rate: int | None
         elapsed = time.perf_counter() - started
     if not result.ok:
         raise SystemExit(f"transfer failed: {result.reason}")
-    return size * 8 / elapsed / 1e6, counters, sender.lane_history
+    return size * 8 / elapsed / 1e6, counters, sender.rate_history
 
 
 def forwarded(folder: Path, size: int, loss: float) -> float:

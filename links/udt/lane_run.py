@@ -20,8 +20,9 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from links.udt.lane_plan import LaneController, Pace, straggler
-from links.udt.protocol import Manifest, segment_bounds
+from links.udt.lane_plan import Pace, straggler
+from links.udt.protocol import MAX_LANES, Manifest, segment_bounds
+from links.udt.rate_probe import RateProbe, lane_share
 
 log = logging.getLogger(__name__)
 
@@ -47,7 +48,7 @@ class LaneRun:
     budget_bps: int | None
     stop: threading.Event
     progress: Callable[[int, int], None] | None = None
-    control: LaneController | None = None
+    control: RateProbe | None = None
     results: list[Any] = field(default_factory=list)
     #: lanes started (connections opened, reconnections aside)
     started: int = 0
@@ -57,7 +58,7 @@ class LaneRun:
         """Run every segment; return (the first failed result or None, the idle senders,
         whose open connections can carry the whole-file manifest)."""
         if self.lanes == 0:
-            self.control = LaneController(budget_bps=self.budget_bps)
+            self.control = RateProbe(budget_bps=self.budget_bps)
         pace = Pace(self.budget_bps) if self.budget_bps else None
         todo = deque(i for i in range(count) if _length(manifest, i, count))
         running: dict[int, threading.Event] = {}
@@ -67,7 +68,10 @@ class LaneRun:
         stored: set[int] = set()
         failures: list[Any] = []
         idle: list[Any] = []
-        target = [self.control.lanes if self.control is not None else self.lanes]
+        target = [MAX_LANES if self.control is not None else self.lanes]
+        senders: dict[int, Any] = {}
+        shares: dict[int, float] = {}
+        sharing = [1.0]  # lanes sending at a time, smoothed
         taken_over: set[int] = set()
 
         def paced(n: int) -> float:
@@ -88,6 +92,10 @@ class LaneRun:
             sender = self.make_sender(report, paced if pace is not None else None, stop)
             if self.control is not None:
                 sender.on_round_trip = answered
+            with self._lock:
+                senders[lane] = sender
+                if lane in shares:
+                    sender.cap(shares[lane])
             try:
                 while not stop.is_set():
                     with self._lock:
@@ -116,6 +124,7 @@ class LaneRun:
             finally:
                 with self._lock:
                     running.pop(lane, None)
+                    senders.pop(lane, None)
                     started.pop(lane, None)
                     inflight.pop(lane, None)
                     keep = not idle  # one open connection carries the verdict; the
@@ -128,12 +137,22 @@ class LaneRun:
             stop = threading.Event()
             running[lane] = stop
             self.started += 1
+            if self.control is not None:  # paced from its first packet
+                shares[lane] = lane_share(self.control.rate_bps, len(running))
             threading.Thread(target=run, args=(lane, stop, first), name=f"udt-lane-{lane}",
                              daemon=True).start()
 
         while True:
             now = time.monotonic()
             with self._lock:
+                busy = []
+                for lane, sender in senders.items():
+                    seen = sender.acknowledged()
+                    if seen is not None and lane in started and lane in inflight \
+                            and seen[0] == (started[lane][0], count):
+                        inflight[lane] = max(inflight[lane], seen[1])
+                        if seen[2]:
+                            busy.append(lane)
                 acknowledged = sum(_length(manifest, i, count) for i in stored) + sum(
                     inflight.values())
                 if not running and (failures or not todo):
@@ -142,10 +161,21 @@ class LaneRun:
                     for stop in running.values():
                         stop.set()
                 if self.control is not None:
-                    target[0] = self.control.sample(now, acknowledged)
+                    rate = self.control.sample(now, acknowledged)
+                    sharing[0] = max(1, len(busy))
+                    share = lane_share(rate, sharing[0])
+                    for lane in running:
+                        if shares.get(lane) != share:
+                            shares[lane] = share
+                            if lane in senders:
+                                senders[lane].cap(share)
                 for lane in range(min(target[0], len(todo) + len(running))):
                     if lane not in running and todo and not failures:
                         start(lane)
+                        if self.control is not None:
+                            # One new lane per tick: each opens with a burst of a
+                            # window UDT sends before any pacing applies.
+                            break
                 if not todo and not failures and len(running) < max(2, target[0]):
                     slow = straggler({lane: t for lane, (i, t) in started.items()
                                       if i not in taken_over}, durations, now)
@@ -157,12 +187,16 @@ class LaneRun:
                         log.info("segment %d of %s stalled on lane %d: sending it again",
                                  index, manifest.name, slow)
                         start(spare, index)
+            if self.control is not None and log.isEnabledFor(logging.DEBUG):
+                log.debug("t %.2f ack %d rate %.2f run %d send %d base %s", now, acknowledged,
+                          self.control.rate_bps / 1e6, len(running), len(busy),
+                          self.control.queued)
             if self.progress:
                 self.progress(acknowledged, manifest.size)
             time.sleep(TICK)
         if self.control is not None:
-            log.info("%s: lanes %s", manifest.name, " -> ".join(
-                str(n) for n in [self.control.start, *(n for _, n, _ in self.control.history)]))
+            log.info("%s: paced at %.2f Mbit/s at the end", manifest.name,
+                     self.control.rate_bps / 1e6)
         if failures:
             return failures[0], idle
         return None, idle

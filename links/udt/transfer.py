@@ -54,6 +54,8 @@ POLL_MS = 250
 """Receive timeout on every socket, so threads notice ``stop()`` within this time."""
 PACED_CHUNK = 64 * 1024
 """DATA payload size while a shared budget paces the lanes (finer steps, smaller bursts)."""
+CAP_POLL_MS = 40
+"""Receive timeout of a paced lane's socket: how soon it takes a new share of the rate."""
 SNDBUF_MIN = 256 * 1024
 SNDBUF_MAX = 12 * 1024 * 1024
 
@@ -79,6 +81,13 @@ def parse_address(text: str) -> tuple[str, int]:
 
 class ConnectionLost(Exception):
     """The UDT connection broke or timed out; the transfer can resume on a new one."""
+
+
+def _wire_rate(sock: Any, data_bps: float) -> int:
+    """``UDT_MAXBW`` (bytes/s on the wire, IP and UDP headers included) for ``data_bps``
+    bits of file data per second."""
+    mss = int(sock.UDT_MSS)
+    return max(1, int(data_bps / 8 * mss / (mss - 44)))
 
 
 def _connect(address: tuple[str, int], timeout: float, max_rate_bps: int | None) -> Any:
@@ -240,8 +249,8 @@ class BulkSender:
         self.lanes = lanes
         #: seconds to wait before handing n more bytes to UDT (a budget shared by lanes)
         self.pace = pace
-        #: the lane controller's decisions in the last adaptive transfer (time, lanes, B/s)
-        self.lane_history: list[tuple[float, int, float]] = []
+        #: the pacing rate's changes in the last adaptive transfer (time, bit/s, phase)
+        self.rate_history: list[tuple[float, float, str]] = []
         #: told how long each manifest waited for its answer (the lane controller's signal)
         self.on_round_trip: Callable[[float], None] | None = None
         self.keys = keys  # vehicle id -> pre-shared key, to answer a receiver's challenge
@@ -257,6 +266,40 @@ class BulkSender:
         self.stall_timeout = stall_timeout
         self._idle: tuple[Any, SenderConnection | None] = (None, None)
         self._pending_events: list[Any] = []
+        self._live: Any = None  # the socket of the attempt under way
+        self._live_conn: SenderConnection | None = None
+        self._cap: float | None = None
+        self._cap_on: float | None = None  # the cap the live socket has
+
+    def acknowledged(self) -> tuple[tuple[int, int] | None, int, bool] | None:
+        """(segment, bytes of it the receiver acknowledged, whether data of it is still
+        on its way) of the transfer under way now; None between transfers. Called from
+        another thread: a lane waiting for an answer or a receipt leaves the radio to
+        the others."""
+        sock, conn = self._live, self._live_conn
+        if sock is None or conn is None or conn.manifest is None:
+            return None
+        if conn.state not in (State.SENDING, State.AWAIT_RECEIPT):
+            return conn.manifest.segment, 0, False
+        pending = _pending(sock)
+        return conn.manifest.segment, max(0, conn.offset - pending), \
+            conn.state is State.SENDING or pending > 0
+
+    def cap(self, data_bps: float) -> None:
+        """Hold this sender's connection to ``data_bps`` bits of file data per second
+        (``UDT_MAXBW``): a share of the rate at which the lanes of a transfer are paced
+        together. Called from another thread; the sender's own thread applies it within
+        ``CAP_POLL_MS`` (UDT's setsockopt waits for the socket's send and receive locks,
+        which a blocked ``recv`` holds)."""
+        self._cap = data_bps
+
+    def _apply_cap(self, sock: Any) -> None:
+        cap = self._cap
+        if cap and cap != self._cap_on:
+            self._cap_on = cap
+            with contextlib.suppress(udt4py().UDTException):
+                sock.UDT_MAXBW = _wire_rate(sock, cap)
+                sock.UDT_RCVTIMEO = CAP_POLL_MS
 
     @property
     def target(self) -> str:
@@ -292,7 +335,7 @@ class BulkSender:
         run = LaneRun(make_sender, self.lanes, self.max_rate_bps, self.stop, self.progress)
         failed, idle = run.send(path, manifest, count)
         if run.control is not None:
-            self.lane_history = list(run.control.history)
+            self.rate_history = list(run.control.history)
         # connections opened: one per lane and one per reconnection
         attempts = run.started + sum(r.attempts - 1 for r in run.results)
         offsets = tuple(o for r in run.results for o in r.resumed_from if o)
@@ -389,6 +432,9 @@ class BulkSender:
         """
         sock, conn, reused = self._open()
         keep = False
+        self._live, self._live_conn = sock, conn
+        self._cap_on = None
+        self._apply_cap(sock)
         try:
             try:
                 answer = self._announce(sock, conn, manifest)
@@ -399,10 +445,14 @@ class BulkSender:
                 _close(sock)
                 sock = _connect(self.address, self.connect_timeout, self.max_rate_bps)
                 conn = SenderConnection(idle_timeout=self.idle_timeout, keys=self.keys)
+                self._live, self._live_conn = sock, conn
+                self._cap_on = None
+                self._apply_cap(sock)
                 answer = self._announce(sock, conn, manifest)
             result, keep = self._exchange(sock, conn, path, manifest, answer, offsets)
             return result
         finally:
+            self._live, self._live_conn = None, None
             if keep and conn.state is State.IDLE and not self.stop.is_set():
                 self._idle = (sock, conn)
             else:
@@ -475,6 +525,7 @@ class BulkSender:
                     raise ConnectionLost("stopped")
                 conn.send_data(chunk, time.monotonic())
                 _send_all(sock, conn.data_to_send(), watchdog)
+                self._apply_cap(sock)
                 if self.progress:
                     self.progress(max(offset, conn.offset - _pending(sock)), total)
 
@@ -514,6 +565,7 @@ class BulkSender:
         while True:
             if self.stop.is_set():
                 raise ConnectionLost("stopped")
+            self._apply_cap(sock)
             try:
                 n = sock.recv(buf)
             except udt.UDTException as exc:

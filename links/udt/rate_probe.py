@@ -1,0 +1,114 @@
+"""How fast all lanes of one transfer send together, from the queue they build at the
+radio. Pure logic: the caller passes the clock, round trips and acknowledged bytes.
+
+UDT's own congestion control reads every radio loss as congestion, and parallel lanes,
+each unaware of the others, over-run the radio's queue together (the tail drops cost
+each lane another back-off). So the lanes are paced as one, at a rate found the way
+delay-based congestion control finds it: the round trip of each segment's manifest and
+its answer waits behind whatever the radio has queued. Its least value is the path's
+own delay (``base``); every ``step`` seconds the least round trip of that step says
+whether a queue stands: below ``room`` seconds of queueing the rate goes up by ``up``
+(by ``startup`` until the first queue is seen), above ``full`` it goes down by ``down``,
+in between it holds - a short queue keeps the radio busy without overflowing it. Random
+radio loss delays only some answers, a full queue all of them, so the least value
+tells the two apart. The rate also stays within ``ahead`` times what the receiver
+acknowledged over the last ``span`` seconds (lanes that cannot use their share must not
+pile up a rate they would all take at once), never below ``floor_bps`` and, with a
+budget, never above it.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+
+
+@dataclass
+class RateProbe:
+    """The pacing rate (bit/s of file data) for the lanes of one transfer."""
+
+    step: float = 0.25
+    span: float = 1.0
+    initial_bps: float = 4e6
+    startup: float = 1.5
+    up: float = 1.06
+    down: float = 0.92
+    room: float = 0.008
+    full: float = 0.025
+    ahead: float = 1.5
+    floor_bps: float = 256e3
+    budget_bps: float | None = None
+    rate_bps: float = 0.0
+    base: float | None = None
+    #: queueing delay (s) of the last step
+    queued: float = 0.0
+    #: "startup" until the first standing queue, then "paced"
+    phase: str = "startup"
+    #: every rate change: (time, rate in bit/s, phase)
+    history: list[tuple[float, float, str]] = field(default_factory=list)
+    _least: float | None = None
+    _marks: deque[tuple[float, int]] = field(default_factory=deque)
+    _next: float | None = None
+
+    def __post_init__(self) -> None:
+        if not 0 < self.step <= self.span or self.initial_bps <= 0 or not self.room < self.full:
+            raise ValueError("rate probe: need 0 < step <= span, a positive initial rate "
+                             "and room < full")
+        self._set(self._clamp(self.initial_bps), 0.0)
+
+    def round_trip(self, seconds: float) -> None:
+        """A manifest's answer came ``seconds`` after the manifest left."""
+        if seconds <= 0:
+            return
+        self.base = seconds if self.base is None else min(self.base, seconds)
+        self._least = seconds if self._least is None else min(self._least, seconds)
+
+    def delivered_bps(self) -> float:
+        """Acknowledged bit/s over the last ``span`` seconds (0 before a whole span)."""
+        (since, before), (now, last) = self._marks[0], self._marks[-1]
+        if now - since < self.span * 0.99:
+            return 0.0
+        return max(0, last - before) * 8 / (now - since)
+
+    def sample(self, now: float, acknowledged: int) -> float:
+        """Feed the bytes acknowledged so far at ``now``; return the rate to pace at."""
+        self._marks.append((now, acknowledged))
+        while len(self._marks) > 2 and now - self._marks[1][0] >= self.span:
+            self._marks.popleft()
+        if self._next is None:
+            self._next = now + self.step
+        if now < self._next:
+            return self.rate_bps
+        self._next = now + self.step
+        least, self._least = self._least, None
+        if least is None or self.base is None:
+            if self.phase != "startup":
+                return self.rate_bps  # no answer this step: nothing learnt
+            least = self.base = self.base or 0.0
+        queued = least - self.base
+        self.queued = queued
+        rate = self.rate_bps
+        if queued >= self.full:
+            self.phase = "paced"
+            rate *= self.down
+        elif queued <= self.room:
+            rate *= self.startup if self.phase == "startup" else self.up
+        delivered = self.delivered_bps()
+        if delivered:
+            rate = min(rate, max(self.initial_bps, self.ahead * delivered))
+        return self._set(self._clamp(rate), now)
+
+    def _clamp(self, rate: float) -> float:
+        rate = max(rate, self.floor_bps)
+        return min(rate, self.budget_bps) if self.budget_bps else rate
+
+    def _set(self, rate: float, now: float) -> float:
+        if rate != self.rate_bps:
+            self.rate_bps = rate
+            self.history.append((now, rate, self.phase))
+        return rate
+
+
+def lane_share(rate_bps: float, sending: float) -> float:
+    """Each sending lane's cap so that together they keep to ``rate_bps``."""
+    return rate_bps / max(1, sending)
