@@ -7,9 +7,11 @@ each lane another back-off). So the lanes are paced as one, at a rate found the 
 delay-based congestion control finds it: the round trip of each segment's manifest and
 its answer waits behind whatever the radio has queued. Its least value is the path's
 own delay (``base``); every ``step`` seconds the least round trip of that step says
-whether a queue stands: below ``room`` seconds of queueing the rate goes up by ``up``
-(by ``startup`` until the first queue is seen), above ``full`` it goes down by ``down``,
-in between it holds - a short queue keeps the radio busy without overflowing it. Random
+whether a queue stands. Below ``room`` seconds of queueing the rate goes up by ``up``
+(by ``startup`` until the first queue is seen). Above ``full`` the radio is full, and
+what the receiver acknowledged over the last ``span`` seconds is what it carries: the
+rate goes to ``drain`` times that (the first time, to the last rate without a queue).
+In between it holds - a short queue keeps the radio busy without overflowing it. Random
 radio loss delays only some answers, a full queue all of them, so the least value
 tells the two apart. The rate also stays within ``ahead`` times what the receiver
 acknowledged over the last ``span`` seconds (lanes that cannot use their share must not
@@ -31,16 +33,16 @@ class RateProbe:
     span: float = 1.0
     initial_bps: float = 4e6
     startup: float = 1.5
-    up: float = 1.06
-    down: float = 0.92
-    room: float = 0.008
-    full: float = 0.025
+    up: float = 1.04
+    drain: float = 0.98
+    room: float = 0.006
+    full: float = 0.020
     ahead: float = 1.5
     floor_bps: float = 256e3
     budget_bps: float | None = None
     rate_bps: float = 0.0
     base: float | None = None
-    #: queueing delay (s) of the last step
+    #: queueing delay (s) seen in the last step
     queued: float = 0.0
     #: "startup" until the first standing queue, then "paced"
     phase: str = "startup"
@@ -64,9 +66,9 @@ class RateProbe:
         self._least = seconds if self._least is None else min(self._least, seconds)
 
     def delivered_bps(self) -> float:
-        """Acknowledged bit/s over the last ``span`` seconds (0 before a whole span)."""
+        """Acknowledged bit/s over the last ``span`` seconds (0 before half a span)."""
         (since, before), (now, last) = self._marks[0], self._marks[-1]
-        if now - since < self.span * 0.99:
+        if now - since < self.span / 2:
             return 0.0
         return max(0, last - before) * 8 / (now - since)
 
@@ -82,20 +84,20 @@ class RateProbe:
         self._next = now + self.step
         least, self._least = self._least, None
         if least is None or self.base is None:
-            if self.phase != "startup":
-                return self.rate_bps  # no answer this step: nothing learnt
-            least = self.base = self.base or 0.0
-        queued = least - self.base
-        self.queued = queued
-        rate = self.rate_bps
-        if queued >= self.full:
-            self.phase = "paced"
-            rate *= self.down
-        elif queued <= self.room:
+            return self.rate_bps  # no answer this step: nothing learnt
+        self.queued = least - self.base
+        rate, delivered = self.rate_bps, self.delivered_bps()
+        if self.queued >= self.full:
+            # A standing queue: the radio is full. What it delivered is its rate.
+            if self.phase == "startup":
+                self.phase = "paced"
+                rate = max(rate / self.startup, self.drain * delivered)
+            else:
+                rate = min(rate, max(rate * self.drain ** 4, self.drain * delivered))
+        elif self.queued <= self.room:
             rate *= self.startup if self.phase == "startup" else self.up
-        delivered = self.delivered_bps()
-        if delivered:
-            rate = min(rate, max(self.initial_bps, self.ahead * delivered))
+            if delivered:
+                rate = min(rate, max(self.initial_bps, self.ahead * delivered))
         return self._set(self._clamp(rate), now)
 
     def _clamp(self, rate: float) -> float:
