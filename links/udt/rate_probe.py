@@ -13,7 +13,7 @@ what the receiver acknowledged over the last ``span`` seconds is what it carries
 rate goes to ``drain`` times that (the first time, to the last rate without a queue).
 In between it holds - a short queue keeps the radio busy without overflowing it. Random
 radio loss delays only some answers, a full queue all of them, so the least value
-tells the two apart. The rate also stays within ``ahead`` times what the receiver
+tells the two apart (given two answers or more in a step). The rate also stays within ``ahead`` times what the receiver
 acknowledged over the last ``span`` seconds (lanes that cannot use their share must not
 pile up a rate they would all take at once), never below ``floor_bps`` and, with a
 budget, never above it.
@@ -51,6 +51,7 @@ class RateProbe:
     _least: float | None = None
     _marks: deque[tuple[float, int]] = field(default_factory=deque)
     _next: float | None = None
+    _answers: int = 0
 
     def __post_init__(self) -> None:
         if not 0 < self.step <= self.span or self.initial_bps <= 0 or not self.room < self.full:
@@ -64,6 +65,7 @@ class RateProbe:
             return
         self.base = seconds if self.base is None else min(self.base, seconds)
         self._least = seconds if self._least is None else min(self._least, seconds)
+        self._answers += 1
 
     def delivered_bps(self) -> float:
         """Acknowledged bit/s over the last ``span`` seconds (0 before half a span)."""
@@ -82,12 +84,12 @@ class RateProbe:
         if now < self._next:
             return self.rate_bps
         self._next = now + self.step
-        least, self._least = self._least, None
+        least, answers, self._least, self._answers = self._least, self._answers, None, 0
         if least is None or self.base is None:
             return self.rate_bps  # no answer this step: nothing learnt
         self.queued = least - self.base
         rate, delivered = self.rate_bps, self.delivered_bps()
-        if self.queued >= self.full:
+        if self.queued >= self.full and answers >= 2:
             # A standing queue: the radio is full. What it delivered is its rate.
             if self.phase == "startup":
                 self.phase = "paced"
