@@ -27,6 +27,8 @@ from links.udt.rate_probe import RateProbe, lane_share
 log = logging.getLogger(__name__)
 
 TICK = 0.05
+import os
+LANES_PACED = int(os.environ.get("LP", "16"))
 """Seconds between the coordinator's looks at the lanes."""
 
 #: make_sender(progress, pace, stop) -> a BulkSender for one lane
@@ -68,7 +70,7 @@ class LaneRun:
         stored: set[int] = set()
         failures: list[Any] = []
         idle: list[Any] = []
-        target = [MAX_LANES if self.control is not None else self.lanes]
+        target = [LANES_PACED if self.control is not None else self.lanes]
         senders: dict[int, Any] = {}
         shares: dict[int, float] = {}
         sharing = [1.0]  # lanes sending at a time, smoothed
@@ -187,10 +189,13 @@ class LaneRun:
                         log.info("segment %d of %s stalled on lane %d: sending it again",
                                  index, manifest.name, slow)
                         start(spare, index)
+            if log.isEnabledFor(logging.DEBUG) and acknowledged - getattr(self, "_prev", 0) > 150_000:
+                log.debug("JUMP %d %s %s", acknowledged - self._prev, dict(inflight), sorted(stored)[-5:])
+            self._prev = acknowledged
             if self.control is not None and log.isEnabledFor(logging.DEBUG):
-                log.debug("t %.2f ack %d rate %.2f run %d send %d base %s", now, acknowledged,
+                log.debug("t %.2f ack %d rate %.2f run %d send %d base %s deliv %.2f ph %s", now, acknowledged,
                           self.control.rate_bps / 1e6, len(running), len(busy),
-                          self.control.queued)
+                          self.control.queued, self.control.delivered_bps() / 1e6, self.control.phase)
             if self.progress:
                 self.progress(acknowledged, manifest.size)
             time.sleep(TICK)

@@ -8,15 +8,17 @@ delay-based congestion control finds it: the round trip of each segment's manife
 its answer waits behind whatever the radio has queued. Its least value is the path's
 own delay (``base``); every ``step`` seconds the least round trip of that step says
 whether a queue stands. Below ``room`` seconds of queueing the rate goes up by ``up``
-(by ``startup`` until the first queue is seen). Above ``full`` the radio is full, and
-what the receiver acknowledged over the last ``span`` seconds is what it carries: the
-rate goes to ``drain`` times that (the first time, to the last rate without a queue).
+(by ``startup`` until the first queue is seen). Above ``full`` the radio is full: the
+rate goes down by ``drain`` (the first time from what the receiver acknowledged over
+the last ``span`` seconds, which is what the radio carries, if that is less).
 In between it holds - a short queue keeps the radio busy without overflowing it. Random
 radio loss delays only some answers, a full queue all of them, so the least value
-tells the two apart (given two answers or more in a step). The rate also stays within ``ahead`` times what the receiver
-acknowledged over the last ``span`` seconds (lanes that cannot use their share must not
-pile up a rate they would all take at once), never below ``floor_bps`` and, with a
-budget, never above it.
+tells the two apart, given two answers or more in each of two steps in a row. While
+lanes do not use their share (UDT's own back-off after losses), the rate stays within
+``lead`` times what the receiver acknowledged (``ahead`` times during the start), so
+they cannot all take a piled-up rate at once. The rate never falls below
+``floor_bps``; with a budget it never exceeds it, and a transfer delivering ``near``
+its budget is not slowed down by a queue it cannot be the cause of.
 """
 
 from __future__ import annotations
@@ -34,10 +36,12 @@ class RateProbe:
     initial_bps: float = 4e6
     startup: float = 1.5
     up: float = 1.04
-    drain: float = 0.98
+    drain: float = 0.95
     room: float = 0.006
     full: float = 0.020
-    ahead: float = 1.5
+    ahead: float = 2.0
+    lead: float = 1.1
+    near: float = 0.9
     floor_bps: float = 256e3
     budget_bps: float | None = None
     rate_bps: float = 0.0
@@ -52,6 +56,7 @@ class RateProbe:
     _marks: deque[tuple[float, int]] = field(default_factory=deque)
     _next: float | None = None
     _answers: int = 0
+    _full_steps: int = 0
 
     def __post_init__(self) -> None:
         if not 0 < self.step <= self.span or self.initial_bps <= 0 or not self.room < self.full:
@@ -89,17 +94,21 @@ class RateProbe:
             return self.rate_bps  # no answer this step: nothing learnt
         self.queued = least - self.base
         rate, delivered = self.rate_bps, self.delivered_bps()
-        if self.queued >= self.full and answers >= 2:
-            # A standing queue: the radio is full. What it delivered is its rate.
+        standing = self.queued >= self.full and answers >= 2
+        self._full_steps = self._full_steps + 1 if standing else 0
+        if self.budget_bps and delivered >= self.near * self.budget_bps:
+            self._full_steps = 0  # delivering its budget: the queue is someone else's
+        if self._full_steps >= (1 if self.phase == "startup" else 2):
+            # A standing queue: the radio is full; what it delivered is what it carries.
             if self.phase == "startup":
-                self.phase = "paced"
-                rate = max(rate / self.startup, self.drain * delivered)
-            else:
-                rate = min(rate, max(rate * self.drain ** 4, self.drain * delivered))
+                self.phase, rate = "paced", min(rate, delivered or rate)
+            self._full_steps = 0
+            rate *= self.drain
         elif self.queued <= self.room:
             rate *= self.startup if self.phase == "startup" else self.up
             if delivered:
-                rate = min(rate, max(self.initial_bps, self.ahead * delivered))
+                lead = self.ahead if self.phase == "startup" else self.lead
+                rate = min(rate, max(self.initial_bps, lead * delivered))
         return self._set(self._clamp(rate), now)
 
     def _clamp(self, rate: float) -> float:
