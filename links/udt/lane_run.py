@@ -60,7 +60,7 @@ class LaneRun:
         """Run every segment; return (the first failed result or None, the idle senders,
         whose open connections can carry the whole-file manifest)."""
         if self.lanes == 0:
-            self.control = RateProbe(budget_bps=self.budget_bps)
+            self.control = RateProbe(budget_bps=self.budget_bps, **{k[3:].lower(): float(v) for k, v in os.environ.items() if k.startswith("RP_")})
         pace = Pace(self.budget_bps) if self.budget_bps else None
         todo = deque(i for i in range(count) if _length(manifest, i, count))
         running: dict[int, threading.Event] = {}

@@ -344,7 +344,9 @@ class BulkSender:
                 return TransferResult(False, failed.reason, failed.code, attempts, offsets)
             # The whole-file manifest on a lane's open connection: no new handshake.
             closer = idle.pop() if idle else self
+            log.debug("FINAL start %.3f", time.monotonic())
             final = closer._send_one(path, manifest)
+            log.debug("FINAL done %.3f", time.monotonic())
         finally:
             for sender in idle:
                 sender.close()
@@ -579,8 +581,11 @@ class BulkSender:
                 pending = watchdog.check() if watchdog is not None else _pending(sock)
                 if pending:  # our data is still draining: the link is slow, not dead
                     conn.touch(now)
-                    if self.progress and conn.manifest is not None:
-                        self.progress(conn.offset - pending, conn.manifest.length)
+                    # (while a manifest waits for its answer, the offset is the last
+                    # transfer's and the pending bytes are the manifest's)
+                    if self.progress and conn.manifest is not None \
+                            and conn.state is State.AWAIT_RECEIPT:
+                        self.progress(max(0, conn.offset - pending), conn.manifest.length)
                 events = conn.handle_timer(now)
             out = conn.data_to_send()
             if out:
