@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from links.udt.protocol import MAX_LANES, MAX_SEGMENTS
+from links.udt.protocol import MAX_SEGMENTS
 
 MIN_LANE_BYTES = 1 << 20
 
@@ -71,87 +71,6 @@ def segments_for(size: int, maximum: int = MAX_SEGMENTS) -> int:
     if size < SPLIT_BYTES:
         return 1
     return max(1, min(maximum, size // SEGMENT_BYTES))
-
-
-@dataclass
-class LaneController:
-    """How many lanes a transfer runs now, from the queueing delay it observes.
-
-    Each lane is a UDT connection taking the file's segments one after another. UDT
-    slows a connection down at every loss, so on a lossy radio one lane moves a fraction
-    of the link and lanes add up; on a clean link one or two fill it and more only
-    queue. Nobody knows which radio this is, so the controller watches the one thing
-    that tells a full link from a lossy one: the round trip of each segment's manifest
-    and its answer, which waits behind the data queued at the radio. Its minimum is the
-    path's own delay (``base``); while the least round trip of a ``window`` stays within
-    ``room`` of it the link has room and the controller adds lanes (half as many again);
-    once it stands ``full`` above it, the queue is standing and one lane goes. Goodput
-    (bytes the receiver acknowledged) is measured per window too: with a budget the
-    climb stops within ``near`` of it (pacing keeps the lanes there). Noisy samples do
-    not matter: a full link delays every answer, a lossy one only some.
-    Pure: the caller passes the clock, the round trips and the acknowledged bytes.
-    """
-
-    start: int = 8
-    maximum: int = MAX_LANES
-    window: float = 1.0
-    settle: float = 0.5
-    room: float = 0.25
-    full: float = 0.75
-    floor: float = 0.010
-    near: float = 0.92
-    budget_bps: float | None = None
-    lanes: int = 0
-    base: float | None = None
-    #: every change: (time, lanes from then on, goodput of the window before in bytes/s)
-    history: list[tuple[float, int, float]] = field(default_factory=list)
-    _changed_at: float | None = None
-    _mark: tuple[float, int] | None = None
-    _least: float | None = None
-
-    def __post_init__(self) -> None:
-        if not 1 <= self.start <= self.maximum:
-            raise ValueError("lanes: need 1 <= start <= maximum")
-        self.lanes = self.lanes or self.start
-
-    def round_trip(self, seconds: float) -> None:
-        """A manifest's answer came ``seconds`` after the manifest left."""
-        if seconds <= 0:
-            return
-        self.base = seconds if self.base is None else min(self.base, seconds)
-        self._least = seconds if self._least is None else min(self._least, seconds)
-
-    def sample(self, now: float, acknowledged: int) -> int:
-        """Feed the bytes acknowledged so far at ``now``; return the lanes to run."""
-        if self._changed_at is None:
-            self._changed_at = now
-        if now - self._changed_at < self.settle:
-            self._least = None  # round trips of the lanes before the change
-            return self.lanes
-        if self._mark is None:
-            self._mark = (now, acknowledged)
-            return self.lanes
-        since, before = self._mark
-        if now - since < self.window:
-            return self.lanes
-        rate = (acknowledged - before) / (now - since)
-        self._mark, least, self._least = (now, acknowledged), self._least, None
-        if least is None or self.base is None:
-            return self.lanes  # no segment started in the window: nothing learnt
-        queued = least - self.base
-        if self.budget_bps and rate * 8 >= self.near * self.budget_bps:
-            return self.lanes
-        if queued <= max(self.floor, self.room * self.base) and self.lanes < self.maximum:
-            return self._set(self.lanes + max(1, self.lanes // 2), now, rate)
-        if queued >= max(2 * self.floor, self.full * self.base) and self.lanes > 1:
-            return self._set(self.lanes - 1, now, rate)
-        return self.lanes
-
-    def _set(self, lanes: int, now: float, rate: float) -> int:
-        self.lanes = max(1, min(self.maximum, lanes))
-        self._changed_at, self._mark, self._least = now, None, None
-        self.history.append((now, self.lanes, rate))
-        return self.lanes
 
 
 @dataclass

@@ -1,12 +1,16 @@
 """One file on parallel UDT lanes: threads that take segments off a shared queue. Does I/O.
 
-The decisions are :mod:`links.udt.lane_plan`'s (how many segments, how many lanes now,
-the shared budget's pacing, which stalled segment to send again); this module runs them:
-each lane is a :class:`~links.udt.transfer.BulkSender` on its own connection that sends
-segment after segment; a coordinating loop samples progress every ``TICK`` seconds,
-starts or retires lanes and, once every segment is handed out, takes a stalled one over
-on an idle lane (the receiver hands the segment to the newest connection and resumes it
-at the bytes it holds).
+The decisions are :mod:`links.udt.lane_plan`'s (how many segments, the shared budget's
+pacing, which stalled segment to send again) and :mod:`links.udt.rate_probe`'s (the rate
+all lanes of an adaptive transfer keep to together); this module runs them: each lane is
+a :class:`~links.udt.transfer.BulkSender` on its own connection that sends segment after
+segment; a coordinating loop looks at the lanes every ``TICK`` seconds, feeds the bytes
+the receiver acknowledged to the rate probe, gives each lane with data on its way an
+equal share of the rate (``UDT_MAXBW``; a lane waiting for an answer or a receipt leaves
+its share to the others), starts lanes one per tick (each opens with a window of packets
+sent before any pacing applies) and, once every segment is handed out, takes a stalled
+one over on an idle lane (the receiver hands the segment to the newest connection and
+resumes it at the bytes it holds).
 """
 
 from __future__ import annotations
@@ -27,8 +31,6 @@ from links.udt.rate_probe import RateProbe, lane_share
 log = logging.getLogger(__name__)
 
 TICK = 0.05
-import os
-LANES_PACED = int(os.environ.get("LP", "16"))
 """Seconds between the coordinator's looks at the lanes."""
 
 #: make_sender(progress, pace, stop) -> a BulkSender for one lane
@@ -60,7 +62,7 @@ class LaneRun:
         """Run every segment; return (the first failed result or None, the idle senders,
         whose open connections can carry the whole-file manifest)."""
         if self.lanes == 0:
-            self.control = RateProbe(budget_bps=self.budget_bps, **{k[3:].lower(): float(v) for k, v in os.environ.items() if k.startswith("RP_")})
+            self.control = RateProbe(budget_bps=self.budget_bps)
         pace = Pace(self.budget_bps) if self.budget_bps else None
         todo = deque(i for i in range(count) if _length(manifest, i, count))
         running: dict[int, threading.Event] = {}
@@ -70,10 +72,9 @@ class LaneRun:
         stored: set[int] = set()
         failures: list[Any] = []
         idle: list[Any] = []
-        target = [LANES_PACED if self.control is not None else self.lanes]
+        wanted = MAX_LANES if self.control is not None else self.lanes
         senders: dict[int, Any] = {}
-        shares: dict[int, float] = {}
-        sharing = [1.0]  # lanes sending at a time, smoothed
+        shares: dict[int, float] = {}  # lane -> its share of the rate (bit/s)
         taken_over: set[int] = set()
 
         def paced(n: int) -> float:
@@ -103,7 +104,7 @@ class LaneRun:
                     with self._lock:
                         if first is not None:
                             index, first = first, None
-                        elif failures or lane >= target[0] or not todo:
+                        elif failures or lane >= wanted or not todo:
                             return
                         else:
                             index = todo.popleft()
@@ -147,7 +148,7 @@ class LaneRun:
         while True:
             now = time.monotonic()
             with self._lock:
-                busy = []
+                busy = []  # lanes with data on its way
                 for lane, sender in senders.items():
                     seen = sender.acknowledged()
                     if seen is not None and lane in started and lane in inflight \
@@ -163,22 +164,18 @@ class LaneRun:
                     for stop in running.values():
                         stop.set()
                 if self.control is not None:
-                    rate = self.control.sample(now, acknowledged)
-                    sharing[0] = max(1, len(busy))
-                    share = lane_share(rate, sharing[0])
+                    share = lane_share(self.control.sample(now, acknowledged), len(busy))
                     for lane in running:
                         if shares.get(lane) != share:
                             shares[lane] = share
                             if lane in senders:
                                 senders[lane].cap(share)
-                for lane in range(min(target[0], len(todo) + len(running))):
+                for lane in range(min(wanted, len(todo) + len(running))):
                     if lane not in running and todo and not failures:
                         start(lane)
                         if self.control is not None:
-                            # One new lane per tick: each opens with a burst of a
-                            # window UDT sends before any pacing applies.
-                            break
-                if not todo and not failures and len(running) < max(2, target[0]):
+                            break  # one new lane per tick
+                if not todo and not failures and len(running) < max(2, wanted):
                     slow = straggler({lane: t for lane, (i, t) in started.items()
                                       if i not in taken_over}, durations, now)
                     if slow is not None:
@@ -189,13 +186,6 @@ class LaneRun:
                         log.info("segment %d of %s stalled on lane %d: sending it again",
                                  index, manifest.name, slow)
                         start(spare, index)
-            if log.isEnabledFor(logging.DEBUG) and acknowledged - getattr(self, "_prev", 0) > 150_000:
-                log.debug("JUMP %d %s %s", acknowledged - self._prev, dict(inflight), sorted(stored)[-5:])
-            self._prev = acknowledged
-            if self.control is not None and log.isEnabledFor(logging.DEBUG):
-                log.debug("t %.2f ack %d rate %.2f run %d send %d base %s deliv %.2f ph %s", now, acknowledged,
-                          self.control.rate_bps / 1e6, len(running), len(busy),
-                          self.control.queued, self.control.delivered_bps() / 1e6, self.control.phase)
             if self.progress:
                 self.progress(acknowledged, manifest.size)
             time.sleep(TICK)

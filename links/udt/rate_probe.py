@@ -8,7 +8,8 @@ delay-based congestion control finds it: the round trip of each segment's manife
 its answer waits behind whatever the radio has queued. Its least value is the path's
 own delay (``base``); every ``step`` seconds the least round trip of that step says
 whether a queue stands. Below ``room`` seconds of queueing the rate goes up by ``up``
-(by ``startup`` until the first queue is seen). Above ``full`` the radio is full: the
+(by ``startup`` until the first queue is seen, or until three steps in a row deliver
+less than ``growth`` times the best so far). Above ``full`` the radio is full: the
 rate goes down by ``drain`` (the first time from what the receiver acknowledged over
 the last ``span`` seconds, which is what the radio carries, if that is less).
 In between it holds - a short queue keeps the radio busy without overflowing it. Random
@@ -35,12 +36,13 @@ class RateProbe:
     span: float = 1.0
     initial_bps: float = 4e6
     startup: float = 1.5
+    growth: float = 1.1
     up: float = 1.04
     drain: float = 0.95
     room: float = 0.006
     full: float = 0.020
     ahead: float = 2.0
-    lead: float = 1.1
+    lead: float = 1.05
     near: float = 0.9
     floor_bps: float = 256e3
     budget_bps: float | None = None
@@ -57,6 +59,8 @@ class RateProbe:
     _next: float | None = None
     _answers: int = 0
     _full_steps: int = 0
+    _best: float = 0.0
+    _flat: int = 0
 
     def __post_init__(self) -> None:
         if not 0 < self.step <= self.span or self.initial_bps <= 0 or not self.room < self.full:
@@ -94,11 +98,20 @@ class RateProbe:
             return self.rate_bps  # no answer this step: nothing learnt
         self.queued = least - self.base
         rate, delivered = self.rate_bps, self.delivered_bps()
-        standing = self.queued >= self.full and answers >= 2
+        at_budget = bool(self.budget_bps) and delivered >= self.near * (self.budget_bps or 0)
+        standing = self.queued >= self.full and answers >= 2 and not at_budget
         self._full_steps = self._full_steps + 1 if standing else 0
-        if self.budget_bps and delivered >= self.near * self.budget_bps:
-            self._full_steps = 0  # delivering its budget: the queue is someone else's
-        if self._full_steps >= (1 if self.phase == "startup" else 2):
+        if self.phase == "startup" and delivered and not at_budget:
+            if delivered > self._best * self.growth:
+                self._best, self._flat = delivered, 0
+            else:
+                self._flat += 1
+        if self.phase == "startup" and self._flat >= 3:
+            # Delivery stopped growing with the rate: the radio is full (a queue too
+            # short to show in the round trips).
+            self.phase, self._full_steps = "paced", 0
+            rate = self.drain * min(rate, self._best)
+        elif self._full_steps >= (1 if self.phase == "startup" else 2):
             # A standing queue: the radio is full; what it delivered is what it carries.
             if self.phase == "startup":
                 self.phase, rate = "paced", min(rate, delivered or rate)
@@ -106,9 +119,10 @@ class RateProbe:
             rate *= self.drain
         elif self.queued <= self.room:
             rate *= self.startup if self.phase == "startup" else self.up
-            if delivered:
-                lead = self.ahead if self.phase == "startup" else self.lead
-                rate = min(rate, max(self.initial_bps, lead * delivered))
+            if self.phase == "startup" and delivered:
+                rate = min(rate, max(self.initial_bps, self.ahead * delivered))
+            elif delivered:
+                rate = min(rate, max(self.floor_bps, self.lead * delivered))
         return self._set(self._clamp(rate), now)
 
     def _clamp(self, rate: float) -> float:
@@ -122,6 +136,6 @@ class RateProbe:
         return rate
 
 
-def lane_share(rate_bps: float, sending: float) -> float:
+def lane_share(rate_bps: float, sending: int) -> float:
     """Each sending lane's cap so that together they keep to ``rate_bps``."""
     return rate_bps / max(1, sending)

@@ -251,7 +251,7 @@ class BulkSender:
         self.pace = pace
         #: the pacing rate's changes in the last adaptive transfer (time, bit/s, phase)
         self.rate_history: list[tuple[float, float, str]] = []
-        #: told how long each manifest waited for its answer (the lane controller's signal)
+        #: told how long each manifest waited for its answer (the rate probe's signal)
         self.on_round_trip: Callable[[float], None] | None = None
         self.keys = keys  # vehicle id -> pre-shared key, to answer a receiver's challenge
         self.address = address
@@ -310,9 +310,9 @@ class BulkSender:
 
         With ``lanes`` other than 1 and a file of several segments (:func:`segments_for`),
         the segments go on parallel connections, each lane taking the next segment when
-        it is done with one; ``lanes`` = 0 lets a :class:`LaneController` pick and adapt
-        the number of lanes from the goodput it measures. Then the whole-file manifest
-        asks for the verdict.
+        it is done with one; ``lanes`` = 0 runs up to ``MAX_LANES`` lanes paced together
+        at the rate a :class:`~links.udt.rate_probe.RateProbe` finds for the radio.
+        Then the whole-file manifest asks for the verdict.
         """
         if self.lanes != 1 and manifest.segment is None:
             count = segments_for(manifest.size)
@@ -344,9 +344,7 @@ class BulkSender:
                 return TransferResult(False, failed.reason, failed.code, attempts, offsets)
             # The whole-file manifest on a lane's open connection: no new handshake.
             closer = idle.pop() if idle else self
-            log.debug("FINAL start %.3f", time.monotonic())
             final = closer._send_one(path, manifest)
-            log.debug("FINAL done %.3f", time.monotonic())
         finally:
             for sender in idle:
                 sender.close()
