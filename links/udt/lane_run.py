@@ -32,6 +32,9 @@ log = logging.getLogger(__name__)
 
 TICK = 0.05
 """Seconds between the coordinator's looks at the lanes."""
+HEADROOM = 1.25
+"""Each lane's share above an even one when a budget's pacer (which hands bytes to all
+lanes together) holds them to it: two limits at the same rate would add their gaps."""
 
 #: make_sender(progress, pace, stop) -> a BulkSender for one lane
 SenderFactory = Callable[[Callable[[int, int], None], Callable[[int], float] | None,
@@ -164,7 +167,10 @@ class LaneRun:
                     for stop in running.values():
                         stop.set()
                 if self.control is not None:
-                    share = lane_share(self.control.sample(now, acknowledged), len(busy))
+                    rate = self.control.sample(now, acknowledged)
+                    share = lane_share(rate, len(busy))
+                    if pace is not None and rate >= pace.rate_bps:
+                        share *= HEADROOM  # the budget's pacer holds the total
                     for lane in running:
                         if shares.get(lane) != share:
                             shares[lane] = share

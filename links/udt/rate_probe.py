@@ -43,7 +43,7 @@ class RateProbe:
     full: float = 0.020
     ahead: float = 2.0
     lead: float = 1.05
-    near: float = 0.9
+    near: float = 0.8
     floor_bps: float = 256e3
     budget_bps: float | None = None
     rate_bps: float = 0.0
