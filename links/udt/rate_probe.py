@@ -35,7 +35,7 @@ class RateProbe:
     step: float = 0.25
     span: float = 1.0
     initial_bps: float = 4e6
-    startup: float = 1.5
+    startup: float = 1.3
     growth: float = 1.1
     up: float = 1.04
     drain: float = 0.95
@@ -76,10 +76,14 @@ class RateProbe:
         self._least = seconds if self._least is None else min(self._least, seconds)
         self._answers += 1
 
-    def delivered_bps(self) -> float:
-        """Acknowledged bit/s over the last ``span`` seconds (0 before half a span)."""
-        (since, before), (now, last) = self._marks[0], self._marks[-1]
-        if now - since < self.span / 2:
+    def delivered_bps(self, over: float | None = None) -> float:
+        """Acknowledged bit/s over the last ``over`` seconds (``span`` by default; 0
+        before half of that is seen)."""
+        over = over or self.span
+        now, last = self._marks[-1]
+        since, before = next(((t, a) for t, a in reversed(self._marks) if now - t >= over),
+                             self._marks[0])
+        if now - since < over / 2:
             return 0.0
         return max(0, last - before) * 8 / (now - since)
 
@@ -113,8 +117,9 @@ class RateProbe:
             rate = self.drain * min(rate, self._best)
         elif self._full_steps >= (1 if self.phase == "startup" else 2):
             # A standing queue: the radio is full; what it delivered is what it carries.
-            if self.phase == "startup":
-                self.phase, rate = "paced", min(rate, delivered or rate)
+            if self.phase == "startup":  # what the radio carried since it filled up
+                recent = self.delivered_bps(2 * self.step)
+                self.phase, rate = "paced", min(rate, recent or delivered or rate)
             self._full_steps = 0
             rate *= self.drain
         elif self.queued <= self.room:

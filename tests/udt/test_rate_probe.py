@@ -44,8 +44,9 @@ QUEUE = [BASE + 0.030, BASE + 0.045]  # every answer waits behind a standing que
     # the start: up by half each step, within twice the delivery once half a span is seen
     ([(4e6, CLEAR), (6e6, CLEAR), (9e6, CLEAR)], [6e6, 9e6, 2 * (4e6 + 6e6 + 9e6) / 3],
      "startup"),
-    # the first standing queue ends the start: down to what was delivered, less a step
-    ([(4e6, CLEAR), (6e6, CLEAR), (5e6, QUEUE)], [6e6, 9e6, 0.95 * 5e6], "paced"),
+    # the first standing queue ends the start: down to what the last two steps delivered,
+    # less a step
+    ([(4e6, CLEAR), (6e6, CLEAR), (5e6, QUEUE)], [6e6, 9e6, 0.95 * (6e6 + 5e6) / 2], "paced"),
     # one delayed answer is a lost packet, not a queue: the clear one counts, the rate rises
     ([(4e6, [BASE]), (6e6, [BASE + 0.3, BASE])], [6e6, 9e6], "startup"),
     # a lone late answer proves nothing either way: hold
@@ -56,7 +57,7 @@ QUEUE = [BASE + 0.030, BASE + 0.045]  # every answer waits behind a standing que
     ([(4e6, [BASE]), (4e6, [])], [6e6, 6e6], "startup"),
 ])
 def test_single_decisions(steps, expected, phase):
-    probe = RateProbe(initial_bps=4e6)
+    probe = RateProbe(initial_bps=4e6, startup=1.5)
     assert drive(probe, steps) == pytest.approx(expected)
     assert probe.phase == phase
 
