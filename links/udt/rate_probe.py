@@ -11,10 +11,11 @@ whether a queue stands. Below ``room`` seconds of queueing the rate goes up by `
 (by ``startup`` until the first queue is seen, or until three steps in a row deliver
 less than ``growth`` times the best so far). Above ``full`` the radio is full: the
 rate goes down by ``drain`` (the first time from what the receiver acknowledged over
-the last ``span`` seconds, which is what the radio carries, if that is less).
+the last two steps, which is what the radio carries, if that is less).
 In between it holds - a short queue keeps the radio busy without overflowing it. Random
 radio loss delays only some answers, a full queue all of them, so the least value
-tells the two apart, given two answers or more in each of two steps in a row. While
+tells the two apart, given two answers or more in each of two steps in a row (four
+right after a step down: the queue takes a while to drain). While
 lanes do not use their share (UDT's own back-off after losses), the rate stays within
 ``lead`` times what the receiver acknowledged (``ahead`` times during the start), so
 they cannot all take a piled-up rate at once. The rate never falls below
@@ -120,7 +121,9 @@ class RateProbe:
             if self.phase == "startup":  # what the radio carried since it filled up
                 recent = self.delivered_bps(2 * self.step)
                 self.phase, rate = "paced", min(rate, recent or delivered or rate)
-            self._full_steps = 0
+            # The queue takes a while to drain: the next step down needs two more
+            # queued steps in a row than this one did.
+            self._full_steps = -2
             rate *= self.drain
         elif self.queued <= self.room:
             rate *= self.startup if self.phase == "startup" else self.up

@@ -62,13 +62,16 @@ def test_single_decisions(steps, expected, phase):
     assert probe.phase == phase
 
 
-def test_paced_rate_needs_two_queued_steps_to_go_down_and_creeps_up_on_a_clear_path():
+def test_a_step_down_waits_for_the_queue_to_drain_before_the_next():
     probe = RateProbe(initial_bps=8e6)
     run = Drive(probe)
     run([(8e6, CLEAR), (8e6, QUEUE)])  # the start is over: paced at 0.95 x 8 Mbit/s
     paced = probe.rate_bps
-    rates = run([(paced, QUEUE), (paced, QUEUE), (paced, CLEAR)])
-    assert rates == pytest.approx([paced, paced * 0.95, paced * 0.95 * 1.04])
+    # four queued steps in a row after a step down, two once the path was clear again
+    rates = run([(paced, QUEUE)] * 4 + [(paced, CLEAR)] + [(paced, QUEUE)] * 2)
+    down = paced * 0.95
+    assert rates == pytest.approx([paced] * 3 + [down, down * 1.04, down * 1.04,
+                                                 down * 1.04 * 0.95])
 
 
 def test_paced_rate_stays_within_reach_of_what_the_lanes_deliver():
@@ -90,7 +93,7 @@ def test_budget_is_a_ceiling_and_its_delivery_is_not_slowed_by_a_queue():
 
 def test_floor():
     probe = RateProbe(initial_bps=1e6, floor_bps=300e3)
-    rates = drive(probe, [(1e6, CLEAR), (1e6, QUEUE)] + [(1e5, QUEUE)] * 60)
+    rates = drive(probe, [(1e6, CLEAR), (1e6, QUEUE)] + [(1e5, QUEUE)] * 120)
     assert min(rates) == 300e3
 
 
