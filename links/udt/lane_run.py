@@ -32,7 +32,7 @@ log = logging.getLogger(__name__)
 
 TICK = 0.05
 """Seconds between the coordinator's looks at the lanes."""
-HEADROOM = 1.25
+HEADROOM = 2.0
 """Each lane's share above an even one when a budget's pacer (which hands bytes to all
 lanes together) holds them to it: two limits at the same rate would add their gaps."""
 

@@ -19,8 +19,10 @@ right after a step down: the queue takes a while to drain). While
 lanes do not use their share (UDT's own back-off after losses), the rate stays within
 ``lead`` times what the receiver acknowledged (``ahead`` times during the start), so
 they cannot all take a piled-up rate at once. The rate never falls below
-``floor_bps``; with a budget it never exceeds it, and a transfer delivering ``near``
-its budget is not slowed down by a queue it cannot be the cause of.
+``floor_bps``; with a budget it stays between ``near`` times the budget and the budget
+(the budget is the operator's word on what the radio carries for bulk data: the
+receiver's own delays in answering must not undercut it; below that, UDT's own
+back-off still answers real congestion).
 """
 
 from __future__ import annotations
@@ -134,8 +136,9 @@ class RateProbe:
         return self._set(self._clamp(rate), now)
 
     def _clamp(self, rate: float) -> float:
-        rate = max(rate, self.floor_bps)
-        return min(rate, self.budget_bps) if self.budget_bps else rate
+        if self.budget_bps:  # the operator's word on what the radio carries for bulk data
+            return min(max(rate, self.near * self.budget_bps, self.floor_bps), self.budget_bps)
+        return max(rate, self.floor_bps)
 
     def _set(self, rate: float, now: float) -> float:
         if rate != self.rate_bps:

@@ -91,6 +91,12 @@ def test_budget_is_a_ceiling_and_its_delivery_is_not_slowed_by_a_queue():
     assert rates[-1] == 5e6
 
 
+def test_under_a_budget_neither_a_queue_nor_a_slow_delivery_take_the_rate_below_near_it():
+    probe = RateProbe(initial_bps=4e6, budget_bps=5e6)
+    rates = drive(probe, [(4e6, CLEAR)] + [(3e6, QUEUE)] * 40 + [(2e6, CLEAR)] * 8)
+    assert min(rates[1:]) == pytest.approx(0.8 * 5e6)
+
+
 def test_floor():
     probe = RateProbe(initial_bps=1e6, floor_bps=300e3)
     rates = drive(probe, [(1e6, CLEAR), (1e6, QUEUE)] + [(1e5, QUEUE)] * 120)
