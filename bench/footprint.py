@@ -168,15 +168,17 @@ FWD_RELAY = JausAddress(200, 1, 1)
 BURST_WINDOW = 1024
 
 
-def forwarder_main(in_port: int, out: str, cycle: float = 0.0) -> None:
+def forwarder_main(in_port: int, out: str, cycle: float = 0.0, thread: bool = False) -> None:
     """The process under test: a router between a UDP link and ``out``; ``cycle`` is
-    the UDP link's option of that name (and the bare loop's equivalent).
+    the UDP link's option of that name (and the bare loop's equivalent), ``thread`` its
+    ``thread`` option.
 
     Reads commands from stdin: ``usage`` answers ``utime stime`` (seconds) on stdout;
     ``reset`` clears the peak resident memory; end of file stops it.
     """
     from edge_vis.routing.link import create_link
     from edge_vis.routing.router import Router
+    from edge_vis.shell import sharedloop
     from edge_vis.tools.testing import RouterNode
 
     if (os.cpu_count() or 1) > 1:
@@ -199,9 +201,13 @@ def forwarder_main(in_port: int, out: str, cycle: float = 0.0) -> None:
         if out.startswith("bare+"):
             await bare(loop, done)
             return
+        if out.startswith("tbare+"):
+            await bare_thread(done)
+            return
         node = RouterNode(Router([FWD_RELAY]), [
             create_link(f"udp://{FWD_IP}:{in_port}?multicast=off"
-                        + (f"&cycle={cycle:g}" if cycle else ""), name="in"),
+                        + (f"&cycle={cycle:g}" if cycle else "")
+                        + ("&thread=1" if thread else ""), name="in"),
             create_link(out, name="out"),
         ])
         await node.start()
@@ -255,7 +261,49 @@ def forwarder_main(in_port: int, out: str, cycle: float = 0.0) -> None:
         sock.close()
         os.close(fd)
 
-    asyncio.run(run())
+    async def bare_thread(done: asyncio.Future[None]) -> None:
+        """The floor of ``thread=1``: the same system calls on a plain thread that waits
+        in ``poll`` for the first datagram and sleeps the cycle between reads."""
+        import threading
+
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        sock.bind((FWD_IP, in_port))
+        sock.setblocking(False)
+        fd = os.open(out.split("//", 1)[1].split("?")[0], os.O_RDWR | os.O_NOCTTY)
+        os.set_blocking(fd, False)
+        buffer = memoryview(bytearray(65535))
+        stop = False
+
+        def serve() -> None:
+            poller = select.poll()
+            poller.register(sock.fileno(), select.POLLIN)
+            while not stop:
+                if not poller.poll(200):
+                    continue
+                while True:
+                    frames: list[bytes] = []
+                    while True:
+                        try:
+                            size, _ = sock.recvfrom_into(buffer)
+                        except BlockingIOError:
+                            break
+                        frames.append(b"\x10\x01\x02" + buffer[:size].tobytes())
+                    if not frames:
+                        break
+                    os.write(fd, b"".join(frames))
+                    if cycle:
+                        time.sleep(cycle)
+
+        worker = threading.Thread(target=serve, daemon=True)
+        worker.start()
+        print("ready", flush=True)
+        await done
+        stop = True
+        worker.join()
+        sock.close()
+        os.close(fd)
+
+    sharedloop.run(run())
 
 
 class Forwarder:
@@ -271,12 +319,12 @@ class Forwarder:
         self.tx.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 1 << 22)
         udp: socket.socket | None = None
         master: int | None = None
-        if kind in ("serial", "bare"):
+        if kind in ("serial", "bare", "thread", "tbare"):
             master, slave = os.openpty()
             tty.setraw(slave)
             out = f"serial://{os.ttyname(slave)}?baud=20000000&pace=0"
-            if kind == "bare":
-                out = "bare+" + out
+            if kind in ("bare", "tbare"):
+                out = f"{kind}+" + out
             os.set_blocking(master, False)
             self._slave = slave
         else:
@@ -288,7 +336,7 @@ class Forwarder:
         self.sink = Sink(udp, master)
         self.proc = subprocess.Popen(
             [*wrapper, sys.executable, __file__, "--forwarder", str(self.in_port), out,
-             str(cycle)],
+             str(cycle), "thread" if kind == "thread" else ""],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
         assert self.proc.stdout is not None and self.proc.stdin is not None
         assert self.proc.stdout.readline().strip() == "ready"
@@ -313,7 +361,7 @@ class Forwarder:
         loop, whose frames carry no CRC). The send time in each payload also keeps the
         runs distinct for the duplicate filter."""
         total = int(rate * seconds)
-        if self.kind == "bare":
+        if self.kind in ("bare", "tbare"):
             self.run += 1
             self.sink.count()
         else:
@@ -340,7 +388,7 @@ class Forwarder:
         return counted, self.cpu() - cpu0, latencies
 
     def _collect(self, latencies: list[int]) -> int:
-        if self.kind == "bare":
+        if self.kind in ("bare", "tbare"):
             return self.sink.count()
         arrived = time.perf_counter_ns()
         stamps = self.sink.drain()
@@ -405,16 +453,20 @@ def rss(pid: int) -> float:
 
 
 KINDS = {"serial": "udp->serial", "udp": "udp->udp",
-         "bare": "floor: bare asyncio udp->pty loop"}
+         "bare": "floor: bare asyncio udp->pty loop",
+         "thread": "udp->serial, thread=1",
+         "tbare": "floor: bare thread udp->pty loop"}
+#: what is measured without a cycle, and with each cycle
+NO_CYCLE = ("serial", "udp", "bare")
+WITH_CYCLE = ("serial", "thread", "bare", "tbare")
 
 
 def paths(args: argparse.Namespace) -> list[tuple[str, float, str]]:
     """(kind, cycle in s, label) of every forwarder measured: each path without a cycle,
     then udp->serial and the floor with each of ``--cycles``."""
-    out = [(kind, 0.0, label) for kind, label in KINDS.items()]
+    out = [(kind, 0.0, KINDS[kind]) for kind in NO_CYCLE]
     for ms in (c for c in args.cycles if c > 0):
-        out += [(kind, ms / 1000, f"{KINDS[kind]}, cycle={ms:g} ms")
-                for kind in ("serial", "bare")]
+        out += [(kind, ms / 1000, f"{KINDS[kind]}, cycle={ms:g} ms") for kind in WITH_CYCLE]
     return [p for p in out if not args.paths or p[2] in args.paths
             or f"{p[0]}:{p[1] * 1000:g}" in args.paths]
 
@@ -645,7 +697,8 @@ def relay_part(args: argparse.Namespace) -> tuple[list[tuple[str, str, str]], bo
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["--forwarder"]:
-        forwarder_main(int(argv[1]), argv[2], float(argv[3]) if len(argv) > 3 else 0.0)
+        forwarder_main(int(argv[1]), argv[2], float(argv[3]) if len(argv) > 3 else 0.0,
+                       argv[4:5] == ["thread"])
         return 0
     if argv[:1] == ["--engine"]:
         engine_main(float(argv[1]))

@@ -12,8 +12,12 @@ One event loop drives everything::
                     Publish     ─► DdsBridge.publish
 
 Every input is handled to completion (router, engine, actions) before the next one, so
-the core never sees concurrency. Bad bytes are counted and logged (rate-limited), never
-raised; a failing link is reported and the relay keeps running.
+the core never sees concurrency. A link with its own I/O thread (``thread=1``) calls
+``deliver`` from that thread while holding the loop's lock
+(:mod:`edge_vis.shell.sharedloop`): the router runs there and what it forwards is sent
+there; everything else (delivery to the engine, timers) is handed to the loop. Bad bytes
+are counted and logged (rate-limited), never raised; a failing link is reported and the
+relay keeps running.
 """
 
 from __future__ import annotations
@@ -50,6 +54,7 @@ from edge_vis.routing.link import Link, Peer, create_link
 from edge_vis.routing.router import Deliver, DeliveryFailed, Router, RouterConfig, SendPackets
 from edge_vis.routing.traffic import priority_for
 from edge_vis.shell.memory import release_memory
+from edge_vis.shell.sharedloop import on_loop_thread
 
 if TYPE_CHECKING:  # the mirror is imported only by a relay that is given one
     from edge_vis.shell.mirror import Mirror
@@ -318,8 +323,33 @@ class Runtime:
             self.counters["router errors"] += 1
             self._log.warning("router", now, "router refused packets from %s: %s", link, exc)
             return
+        if not on_loop_thread(self._loop):
+            self._carry_from_thread(actions)
+            return
         self._carry_router(actions, now)
         self._pump_engine(now)
+
+    def _carry_from_thread(self, actions: list[Any]) -> None:
+        """On a link thread: send what the router forwards; post the rest to the loop
+        (it wakes only when there is something for it)."""
+        assert self._loop is not None
+        rest = []
+        for action in actions:
+            if isinstance(action, SendPackets):
+                self._carry_router((action,), 0.0)
+            else:
+                rest.append(action)
+        deadline = self.router.next_deadline()
+        if rest or (deadline is not None
+                    and (self._timer_at is None or deadline < self._timer_at)):
+            self._loop.call_soon_threadsafe(self._carry_posted, rest)
+
+    def _carry_posted(self, actions: list[Any]) -> None:
+        assert self._loop is not None
+        now = self._loop.time()
+        self._carry_router(actions, now)
+        self._pump_engine(now)
+        self._rearm(now)
 
     def _on_sample(self, topic: str, sample: dict[str, Any]) -> None:
         assert self._loop is not None and self.engine is not None
