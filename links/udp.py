@@ -230,6 +230,7 @@ class UdpLink(Link):
             os.write(self._wake[1], b"x")
             if self._thread_done is not None:
                 await self._thread_done  # the loop lets go of the lock while it waits
+            self._thread.join(1.0)  # past its last use of the lock: it only returns
             self._thread = None
             for fd in self._wake:
                 os.close(fd)
