@@ -218,17 +218,25 @@ class SerialLink(Link):
         if self._fd is None:
             self.counters.dropped("link down", len(packets))
             return
+        if not packets:
+            return
         out, frames = self._out, self._frames
         before = len(out)
-        sent = 0
-        for packet in packets:
-            if len(out) > MAX_WRITE_BUFFER:
-                self.counters.dropped("send buffer full", len(packets) - sent)
-                break
-            data = frame(packet)
-            out += data
-            frames.append(len(data))
-            sent += 1
+        framed = list(map(frame, packets))
+        lengths = list(map(len, framed))
+        if before + sum(lengths) - lengths[-1] <= MAX_WRITE_BUFFER:  # all fit (usual)
+            out += b"".join(framed)
+            frames.extend(lengths)
+            sent = len(framed)
+        else:
+            sent = 0
+            for data in framed:
+                if len(out) > MAX_WRITE_BUFFER:
+                    self.counters.dropped("send buffer full", len(packets) - sent)
+                    break
+                out += data
+                frames.append(len(data))
+                sent += 1
         if sent:
             self.counters.sent(self.path, len(out) - before, sent)
         # the frames of one call share one system call (the router hands over everything
@@ -317,8 +325,12 @@ class SerialLink(Link):
 
     def _written(self, count: int) -> None:
         """``count`` bytes left the buffer: advance the frame bookkeeping."""
-        self._urgent_bytes = max(0, self._urgent_bytes - count)
         frames = self._frames
+        if not self._out:  # all written (the usual case): no frame left to track
+            frames.clear()
+            self._head_sent = self._urgent_bytes = 0
+            return
+        self._urgent_bytes = max(0, self._urgent_bytes - count)
         count += self._head_sent
         while frames and count >= frames[0]:
             count -= frames.popleft()

@@ -33,7 +33,6 @@ it yields whole frames or specific errors. Theory of operation:
 
 from __future__ import annotations
 
-import functools
 import struct
 from binascii import crc_hqx
 from dataclasses import dataclass
@@ -83,14 +82,24 @@ def crc16(data: bytes | bytearray | memoryview, crc: int = 0xFFFF) -> int:
     return rev[crc & 0xFF] << 8 | rev[crc >> 8]
 
 
-@functools.lru_cache(maxsize=256)
-def _framed_head(length: int) -> tuple[bytes, int]:
-    """``DLE SOH``, the stuffed version and length, ``DLE STX``; and the header CRC.
+#: :func:`_framed_head` by message length, looked up inline by :func:`frame`
+_HEADS: dict[int, tuple[bytes, int, int]] = {}
+
+
+def _framed_head(length: int) -> tuple[bytes, int, int]:
+    """``DLE SOH``, the stuffed version and length, ``DLE STX``; the header CRC; and the
+    packet CRC's starting register in bit-reversed form (see :func:`crc16`).
 
     The same for every message of one length: computed once per length.
     """
     head = _HEAD.pack(JUDP_VERSION, length)
-    return _START + head.replace(_DLE, _DLE2) + _MID, crc16(head)
+    crc = crc16(head)
+    rev = _REVERSED
+    if len(_HEADS) >= 256:
+        _HEADS.clear()
+    found = _HEADS[length] = (_START + head.replace(_DLE, _DLE2) + _MID, crc,
+                              rev[crc & 0xFF] << 8 | rev[crc >> 8])
+    return found
 
 
 def stuff(data: bytes) -> bytes:
@@ -99,11 +108,18 @@ def stuff(data: bytes) -> bytes:
 
 
 def frame(packet: Packet) -> bytes:
-    """The bytes on the line for one packet (framed, CRCs computed, DLE-stuffed)."""
-    message = encode_packet(packet)
-    start, header_crc = _framed_head(len(message))
+    """The bytes on the line for one packet (framed, CRCs computed, DLE-stuffed).
+
+    :func:`crc16` written out: this runs once per packet sent on a serial link.
+    """
+    message = packet.wire
+    if message is None:
+        message = encode_packet(packet)
+    start, header_crc, seed = _HEADS.get(len(message)) or _framed_head(len(message))
     body = _U16.pack(header_crc) + message
-    packet_crc = _U16.pack(crc16(body, header_crc))
+    rev = _REVERSED
+    crc = crc_hqx(body.translate(rev), seed)
+    packet_crc = _U16.pack(rev[crc & 0xFF] << 8 | rev[crc >> 8])
     return b"".join((start, body.replace(_DLE, _DLE2), _END, packet_crc.replace(_DLE, _DLE2)))
 
 

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field, replace
 from enum import IntEnum
 
 from edge_vis.errors import DecodeError, EncodeError, UnsupportedError
-from edge_vis.jaus.address import JausAddress
+from edge_vis.jaus.address import ADDRESSES, JausAddress, address_from_id
 
 JUDP_VERSION = 2
 #: data size of a message with an empty payload (header 12 bytes + sequence number 2)
@@ -41,7 +41,7 @@ _HEAD = struct.Struct("<BHBII")  # type/hc, data size, flags, destination, sourc
 _HEAD_HC = struct.Struct("<BHBBBII")  # with HC number and HC length
 _SEQ = struct.Struct("<H")
 _CODE = struct.Struct("<H")
-_from_id = JausAddress.from_id
+_from_id = address_from_id  # cached: two per packet header
 
 
 class Priority(IntEnum):
@@ -264,9 +264,17 @@ def unpack_datagram(data: bytes | memoryview) -> list[Packet]:
             raise UnsupportedError("legacy JAUS01.0 (OPC 2.75) header is not supported",
                                    path="version", offset=0)
         raise DecodeError(f"unknown JUDP version byte 0x{version:02X}", path="version", offset=0)
+    end = len(data)
+    if end >= 1 + MIN_DATA_SIZE:  # the usual datagram: one message, no compression
+        type_hc, size, flags, dst, src = _HEAD.unpack_from(data, 1)
+        if size == end - 1 and size >= MIN_DATA_SIZE and not type_hc >> 6:
+            wire = bytes(data[1:])
+            addresses = ADDRESSES
+            return [_Decoded(  # type: ignore[list-item]  # it is a Packet once built
+                addresses.get(dst) or _from_id(dst), addresses.get(src) or _from_id(src),
+                wire[12:-2], wire[-2] | wire[-1] << 8, flags, type_hc & 0x3F, wire)]
     packets = []
     offset = 1
-    end = len(data)
     while offset < end:
         packet, offset = decode_packet(data, offset)
         packets.append(packet)
