@@ -466,7 +466,7 @@ class UdpLink(Link):
                 continue
             count += 1
             try:  # each packet copies its own bytes out of the buffer
-                packets = unpack_datagram(buffer[:size])
+                packets = unpack_datagram(buffer, size)
             except DecodeError as exc:
                 self._malformed(addr, str(exc), buffer[:size].tobytes())
                 continue
