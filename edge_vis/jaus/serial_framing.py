@@ -83,23 +83,29 @@ def crc16(data: bytes | bytearray | memoryview, crc: int = 0xFFFF) -> int:
 
 
 #: :func:`_framed_head` by message length, looked up inline by :func:`frame`
-_HEADS: dict[int, tuple[bytes, int, int]] = {}
+_HEADS: dict[int, tuple[bytes, int]] = {}
 
 
-def _framed_head(length: int) -> tuple[bytes, int, int]:
-    """``DLE SOH``, the stuffed version and length, ``DLE STX``; the header CRC; and the
-    packet CRC's starting register in bit-reversed form (see :func:`crc16`).
-
-    The same for every message of one length: computed once per length.
+def _framed_head(length: int) -> tuple[bytes, int]:
+    """Everything of a frame that depends only on its message's length: ``DLE SOH``, the
+    stuffed version and length, ``DLE STX`` and the stuffed header CRC; and the packet
+    CRC's register after the header CRC (bit-reversed, for ``crc_hqx``: see :func:`crc16`).
     """
     head = _HEAD.pack(JUDP_VERSION, length)
     crc = crc16(head)
+    crc_bytes = _U16.pack(crc)
     rev = _REVERSED
+    register = crc_hqx(crc_bytes.translate(rev), rev[crc & 0xFF] << 8 | rev[crc >> 8])
     if len(_HEADS) >= 256:
         _HEADS.clear()
-    found = _HEADS[length] = (_START + head.replace(_DLE, _DLE2) + _MID, crc,
-                              rev[crc & 0xFF] << 8 | rev[crc >> 8])
+    found = _HEADS[length] = (
+        _START + head.replace(_DLE, _DLE2) + _MID + crc_bytes.replace(_DLE, _DLE2), register)
     return found
+
+
+#: the stuffed byte that ends a frame for each value of half the ``crc_hqx`` register
+_TAIL = tuple(bytes((_REVERSED[b],)).replace(bytes((DLE,)), bytes((DLE, DLE)))
+              for b in range(256))
 
 
 def stuff(data: bytes) -> bytes:
@@ -115,12 +121,11 @@ def frame(packet: Packet) -> bytes:
     message = packet.wire
     if message is None:
         message = encode_packet(packet)
-    start, header_crc, seed = _HEADS.get(len(message)) or _framed_head(len(message))
-    body = _U16.pack(header_crc) + message
-    rev = _REVERSED
-    crc = crc_hqx(body.translate(rev), seed)
-    packet_crc = _U16.pack(rev[crc & 0xFF] << 8 | rev[crc >> 8])
-    return b"".join((start, body.replace(_DLE, _DLE2), _END, packet_crc.replace(_DLE, _DLE2)))
+    start, register = _HEADS.get(len(message)) or _framed_head(len(message))
+    crc = crc_hqx(message.translate(_REVERSED), register)
+    # the packet CRC, little-endian, is the bit-reversed register's bytes in swapped order
+    return b"".join((start, message.replace(_DLE, _DLE2), _END, _TAIL[crc >> 8],
+                     _TAIL[crc & 0xFF]))
 
 
 @dataclass(frozen=True, slots=True)
