@@ -245,3 +245,65 @@ def test_closing_while_traffic_flows_ends_the_thread_promptly() -> None:
             radio.pty.close()
 
     run(scenario())
+
+
+def test_the_relay_runtime_takes_reports_from_a_threaded_link_on_its_loop() -> None:
+    """``edge-vis run``'s runtime with a threaded link: a vehicle's ReportIdentification,
+    read and routed on the link thread, reaches the engine on the loop, and what the
+    engine sends back (asked on the loop) leaves on the same link."""
+    from edge_vis.catalogue import default_catalogue
+    from edge_vis.config import from_mapping
+    from edge_vis.shell.relay import Runtime
+
+    catalogue = default_catalogue()
+    vehicle = JausAddress(126, 1, 1)
+    port = free_port()
+    profile = from_mapping({
+        "relay": {"jaus_id": str(RELAY)},
+        "links": {"lan": {"url": f"udp://{HOST}:{port}?thread=1&cycle=0.01&multicast=off"
+                                 f"&peers={SENDER}:{port}"}},
+        "translators": {"enabled": ["core"]},
+    }, file="thread.toml")
+
+    async def scenario() -> None:
+        runtime = Runtime(profile, publisher_factory=None)
+        peer = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        peer.bind((SENDER, port))
+        peer.setblocking(False)
+        await runtime.start()
+        try:
+            loop_thread = threading.get_ident()
+            seen: list[int] = []
+            engine = runtime.engine
+            assert engine is not None
+            receive = engine.receive_message
+
+            def watched(*args: object, **kw: object) -> None:
+                seen.append(threading.get_ident())
+                receive(*args, **kw)  # type: ignore[arg-type]
+
+            engine.receive_message = watched  # type: ignore[method-assign]
+            ident = catalogue.encode("ReportIdentification", {
+                "query_type": 2, "type": 10001, "identification": "ugv"})
+            peer.sendto(pack_datagram([Packet(RELAY, vehicle, ident)]), (HOST, port))
+            await until(lambda: runtime.first_discovery_at is not None)
+            assert seen == [loop_thread]
+            # the engine asks the new vehicle about itself: out on the link, to the peer
+            asked: list[str] = []
+
+            def read() -> bool:
+                while True:
+                    try:
+                        data = peer.recv(65535)
+                    except BlockingIOError:
+                        return any(a != "QueryIdentification" for a in asked)
+                    asked.extend(catalogue.decode(p.payload).name
+                                 for p in unpack_datagram(data) if p.destination == vehicle)
+
+            await until(read)
+        finally:
+            peer.close()
+            await runtime.stop()
+        assert not link_threads()
+
+    run(scenario())
