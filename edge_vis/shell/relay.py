@@ -14,8 +14,9 @@ One event loop drives everything::
 Every input is handled to completion (router, engine, actions) before the next one, so
 the core never sees concurrency. A link with its own I/O thread (``thread=1``) calls
 ``deliver`` from that thread while holding the loop's lock
-(:mod:`edge_vis.shell.sharedloop`): the router runs there and what it forwards is sent
-there; everything else (delivery to the engine, timers) is handed to the loop. Bad bytes
+(:mod:`edge_vis.shell.sharedloop`), so that input too is handled to completion (router,
+engine, sends, DDS writes) with nothing else running; only what needs the loop itself (a
+timer wanted earlier than the one armed, the end of a shutdown) is handed to it. Bad bytes
 are counted and logged (rate-limited), never raised; a failing link is reported and the
 relay keeps running.
 """
@@ -105,6 +106,8 @@ class Runtime:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._timer: asyncio.TimerHandle | None = None
         self._timer_at: float | None = None
+        #: a link thread asked the loop to arm its timer earlier (not yet done)
+        self._rearm_posted = False
         self._stopped: asyncio.Event | None = None
         self._shutdown_done: asyncio.Event | None = None
         self._status_task: asyncio.Task[None] | None = None
@@ -323,33 +326,8 @@ class Runtime:
             self.counters["router errors"] += 1
             self._log.warning("router", now, "router refused packets from %s: %s", link, exc)
             return
-        if not on_loop_thread(self._loop):
-            self._carry_from_thread(actions)
-            return
         self._carry_router(actions, now)
         self._pump_engine(now)
-
-    def _carry_from_thread(self, actions: list[Any]) -> None:
-        """On a link thread: send what the router forwards; post the rest to the loop
-        (it wakes only when there is something for it)."""
-        assert self._loop is not None
-        rest = []
-        for action in actions:
-            if isinstance(action, SendPackets):
-                self._carry_router((action,), 0.0)
-            else:
-                rest.append(action)
-        deadline = self.router.next_deadline()
-        if rest or (deadline is not None
-                    and (self._timer_at is None or deadline < self._timer_at)):
-            self._loop.call_soon_threadsafe(self._carry_posted, rest)
-
-    def _carry_posted(self, actions: list[Any]) -> None:
-        assert self._loop is not None
-        now = self._loop.time()
-        self._carry_router(actions, now)
-        self._pump_engine(now)
-        self._rearm(now)
 
     def _on_sample(self, topic: str, sample: dict[str, Any]) -> None:
         assert self._loop is not None and self.engine is not None
@@ -472,7 +450,11 @@ class Runtime:
                     if self.publisher is not None and hasattr(self.publisher, "withdraw"):
                         self.publisher.withdraw(action.vehicle_id)
                 elif isinstance(action, ShutdownComplete) and self._shutdown_done is not None:
-                    self._shutdown_done.set()
+                    if on_loop_thread(self._loop):
+                        self._shutdown_done.set()
+                    else:
+                        assert self._loop is not None
+                        self._loop.call_soon_threadsafe(self._shutdown_done.set)
         self._rearm(now)
 
     def _send(self, action: SendMessage, now: float) -> None:
@@ -564,10 +546,20 @@ class Runtime:
         when = max(min(deadlines), now)
         if self._timer_at is not None and self._timer_at <= when:
             return
+        if not on_loop_thread(self._loop):  # a link thread: the loop arms its own timer
+            if not self._rearm_posted:
+                self._rearm_posted = True
+                self._loop.call_soon_threadsafe(self._rearm_on_loop)
+            return
         if self._timer is not None:
             self._timer.cancel()
         self._timer_at = when
         self._timer = self._loop.call_at(when, self._on_timer)
+
+    def _rearm_on_loop(self) -> None:
+        assert self._loop is not None
+        self._rearm_posted = False
+        self._rearm(self._loop.time())
 
     # -- health and mirror ----------------------------------------------------------------------
     def _priority(self, action: SendMessage) -> int:
