@@ -5,6 +5,8 @@
     .venv/bin/python bench/footprint.py --bundle dist/edge-vis.pyz --no-dds
     .venv/bin/python bench/footprint.py --only forwarder --callgrind   # + instructions/msg
     .venv/bin/python bench/footprint.py --only forwarder --burst 0 --cycles 2 --paths serial:2
+    .venv/bin/python bench/footprint.py --only forwarder --burst 0 --cycles 10 \
+        --paths serial:10,thread:10,bare:10,tbare:10          # the link thread beside the loop
 
 Parts, each in its own process so that one does not colour another's memory:
 
@@ -26,8 +28,11 @@ Parts, each in its own process so that one does not colour another's memory:
    ``clear_refs``), and the resident memory over ``--settle`` seconds after it
    (``VmRSS``), against the idle figure before. udp->serial and the floor are measured
    again with each UDP receive cycle of ``--cycles`` (the link's ``cycle`` option; the
-   floor reads on the same timer), and every path reports the time from send to arrival
-   at the sink (p50 / p99) at each rate. ``--paths serial:5,bare:0`` picks forwarders.
+   floor reads on the same timer), and so is udp->serial with the UDP link's ``thread=1``
+   (reading, routing and writing on the link's own thread, which sleeps the cycle) beside
+   its floor, a plain thread doing the same system calls; every path reports the time
+   from send to arrival at the sink (p50 / p99) at each rate. ``--paths
+   serial:5,thread:10,bare:0,tbare:10`` picks forwarders.
 2. **JAUS report -> DDS sample**: ``bench/engine.py``'s pipeline (router, catalogue,
    engine, mobility translator, ``DdsBridge.publish`` to a real Cyclone writer) fed
    ReportGlobalPose at a paced 1,000 reports/s; CPU = ``time.process_time`` (all threads,
