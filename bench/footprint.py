@@ -718,7 +718,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", choices=("forwarder", "engine", "relay"),
                         help="run one part only")
     parser.add_argument("--cycles", type=lambda t: [float(x) for x in t.split(",") if x],
-                        default=[1.0, 5.0],
+                        default=[1.0, 5.0, 10.0],
                         help="UDP link cycles to measure, ms, comma separated (0: none)")
     parser.add_argument("--paths", type=lambda t: t.split(","), default=[],
                         help="forwarder paths to measure, e.g. serial:0,serial:5,bare:0")
