@@ -30,16 +30,15 @@ URL::
   apart before it is read). Sending is never delayed: ``send`` and ``send_urgent``
   write at once, whatever the cycle.
 * ``thread=1``: read the socket on a thread of the link's own instead of the asyncio
-  loop, and carry each cycle's datagrams from there through the router to the other
-  links; the loop wakes only for what is addressed to the relay itself (or for a link
-  that must wait for its device). Between reads the thread sleeps the ``cycle`` with a
-  plain blocking call, which costs the process a fraction of a turn of the event loop:
-  with ``cycle=0.01`` a relay forwarding 1,000 msg/s spends about half the CPU of the
-  loop's own cycle (see the README's Footprint figures). The router and the links are
-  still used by one thread at a time (the relay's event loop and the link threads share
-  one lock, :mod:`edge_vis.shell.sharedloop`), so duplicate filtering, pacing, the
-  urgent path and the counters behave as without the thread. Needs the relay's event
-  loop (``edge-vis run``); the latency cost is the cycle's, as above.
+  loop. The thread waits for the first datagram after a quiet cycle, then reads a
+  cycle's datagrams at a time and hands them to the runtime right there (which routes,
+  forwards and writes them on that thread), and sleeps the ``cycle`` with a plain
+  blocking call, which costs the process a fraction of a turn of the event loop (see the
+  README's Footprint figures). The relay's event loop and the link threads share one
+  lock (:mod:`edge_vis.shell.sharedloop`), so the router, the engine and the links are
+  used by one thread at a time: duplicate filtering, pacing, the urgent path and the
+  counters behave as without the thread. Needs the relay's event loop (``edge-vis run``,
+  or ``sharedloop.run``); the latency cost is the cycle's, as above.
 
 The protocol logic (datagram layout) is :mod:`edge_vis.jaus.transport`; this module only
 moves bytes. A datagram that does not decode is counted as malformed and dropped whole.

@@ -1,18 +1,19 @@
 """The relay's event loop, shared with link I/O threads under one lock. Performs I/O.
 
-A link may forward on a thread of its own (``udp://...?thread=1``): it sleeps its receive
+A link may receive on a thread of its own (``udp://...?thread=1``): it sleeps its receive
 cycle with a plain blocking call, which wakes the process for far less than a turn of the
-asyncio loop, and carries a whole cycle's datagrams through the router to the other
-links without waking the loop at all. The core still never sees concurrency:
+asyncio loop, and hands a whole cycle's datagrams to the runtime on that thread (router,
+engine, the other links' writes) without waking the loop. The core still never sees
+concurrency:
 
 * :class:`SharedLoop` holds :attr:`SharedLoop.lock` whenever it runs anything (every
   callback, every task step) and lets go of it only while it waits in ``select``;
 * a link thread takes the same lock for each cycle's work, so the router, the links'
   buffers and the shell's state are touched by one thread at a time, exactly as in a
   single-threaded relay;
-* what a thread's cycle leaves for the loop (messages for the relay itself, a timer the
-  router now wants earlier, a link that must wait for its device) is handed over with
-  ``call_soon_threadsafe``: the loop wakes only when there is work for it.
+* what only the loop may do (arm a timer earlier than the one it has, wait for a full
+  device to drain, set an asyncio event) is handed to it with ``call_soon_threadsafe``:
+  the loop wakes only when there is such work.
 
 ``run(coro)`` replaces ``asyncio.run`` for programs that may open such links.
 """
