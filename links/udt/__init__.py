@@ -21,7 +21,6 @@ from links.udt.fetch_queue import FetchQueue, Wanted
 from links.udt.image_server import ImageServer
 from links.udt.image_service import ImageService, manifest_for_file, send_image
 from links.udt.keys import load_keys
-from links.udt.lane_plan import LanePlan
 from links.udt.protocol import AtrMetadata, Backoff, Manifest, Position, Reason
 from links.udt.spool import Spool, SpoolRefusal
 from links.udt.transfer import BulkReceiver, BulkSender, Forwarder, TransferResult, parse_address
@@ -47,7 +46,6 @@ class UdtBulkChannel(BulkChannel):
     ImageServer = ImageServer
     FetchQueue = FetchQueue
     Wanted = Wanted
-    LanePlan = LanePlan
     BulkSender = BulkSender
     BulkReceiver = BulkReceiver
     Forwarder = Forwarder

@@ -6,6 +6,13 @@ of it), and the server answers with that file's manifest and data exactly as
 ``send-image`` would push them; the fetcher's spool decides where to resume. A file is
 hashed once per (size, modification time). Names are plain file names inside the
 directory (no paths, no hidden or partial files), so nothing outside it can be read.
+
+A fetcher pulls a large file as segments on parallel connections (lanes). The server
+sends the data, so it paces them: the lanes one fetcher opened for one file are paced
+together at one rate (:class:`~links.udt.lane_run.SharedRate`, the mechanism of
+``send-image``'s adaptive lanes), from the round trips of its manifests to their answers
+and the bytes the fetcher acknowledged; the rate a segment's FETCH carries is the budget
+of all lanes of that fetch together.
 """
 
 from __future__ import annotations
@@ -14,12 +21,14 @@ import logging
 import os
 import threading
 import time
-from dataclasses import replace
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from edge_vis.errors import LinkError
 from links.udt.image_service import manifest_for_file
+from links.udt.lane_run import TICK, SharedRate
 from links.udt.protocol import (
     FetchRequested,
     Manifest,
@@ -35,6 +44,7 @@ from links.udt.transfer import (
     POLL_MS,
     BulkSender,
     ConnectionLost,
+    TransferResult,
     _close,
     _send_all,
     listen,
@@ -42,6 +52,40 @@ from links.udt.transfer import (
 )
 
 log = logging.getLogger(__name__)
+
+#: (fetcher's host, file name, segment count): the lanes of one fetch
+FetchKey = tuple[str, str, int]
+
+
+@dataclass
+class _PacedFetch:
+    """The lanes (connections) one fetcher opened for one file, paced together. The
+    server's lock guards it."""
+
+    rate: SharedRate
+    connections: int = 0
+    #: lane sender -> (its segment under way or None, bytes of it acknowledged)
+    lanes: dict[BulkSender, tuple[tuple[int, int] | None, int]] = field(default_factory=dict)
+    done: int = 0  # bytes of the segments served
+
+    def serving(self, sender: BulkSender, segment: tuple[int, int]) -> None:
+        self.lanes[sender] = (segment, 0)
+        sender.cap(self.rate.joining(sum(s is not None for s, _ in self.lanes.values())))
+
+    def served(self, sender: BulkSender, length: int) -> None:
+        self.done += length
+        self.lanes[sender] = (None, 0)
+
+    def tick(self, now: float) -> None:
+        busy = 0
+        for sender, (segment, seen) in list(self.lanes.items()):
+            ack = sender.acknowledged()
+            if segment is not None and ack is not None and ack[0] == segment:
+                self.lanes[sender] = (segment, max(seen, ack[1]))
+                busy += ack[2]
+        share = self.rate.share(now, self.done + sum(a for _, a in self.lanes.values()), busy)
+        for sender in self.lanes:
+            sender.cap(share)
 
 
 class ImageServer:
@@ -64,6 +108,7 @@ class ImageServer:
         self._threads: list[threading.Thread] = []
         self._lock = threading.Lock()
         self._manifests: dict[str, tuple[tuple[int, int], Manifest]] = {}
+        self._fetches: dict[FetchKey, _PacedFetch] = {}
         self._open = 0
         self.counters = {"connections": 0, "served": 0, "not_found": 0, "interrupted": 0}
 
@@ -75,9 +120,11 @@ class ImageServer:
 
     def start(self) -> ImageServer:
         self._listener = listen(self._bind, linger=0, max_rate_bps=self.max_rate_bps or 0)
-        t = threading.Thread(target=self._accept_loop, name="udt-serve-accept", daemon=True)
-        t.start()
-        self._threads.append(t)
+        for target, name in ((self._accept_loop, "udt-serve-accept"),
+                             (self._pace_loop, "udt-serve-pace")):
+            t = threading.Thread(target=target, name=name, daemon=True)
+            t.start()
+            self._threads.append(t)
         log.info("serving images of %s on udt://%s:%d", self.directory, *self.address)
         return self
 
@@ -138,6 +185,28 @@ class ImageServer:
             self._threads.append(t)
             t.start()
 
+    def _pace_loop(self) -> None:
+        while not self._stop.wait(TICK):
+            now = time.monotonic()
+            with self._lock:
+                for fetch in self._fetches.values():
+                    fetch.tick(now)
+
+    def _join(self, key: FetchKey, budget_bps: int | None) -> _PacedFetch:
+        with self._lock:
+            fetch = self._fetches.get(key)
+            if fetch is None:
+                fetch = self._fetches[key] = _PacedFetch(SharedRate(budget_bps))
+            fetch.connections += 1
+            return fetch
+
+    def _leave(self, key: FetchKey, fetch: _PacedFetch, sender: BulkSender) -> None:
+        with self._lock:
+            fetch.lanes.pop(sender, None)
+            fetch.connections -= 1
+            if fetch.connections <= 0 and self._fetches.get(key) is fetch:
+                del self._fetches[key]
+
     def _serve(self, sock: Any, peer: str) -> None:
         udt = udt4py()
         sock.UDT_RCVTIMEO = POLL_MS
@@ -146,6 +215,7 @@ class ImageServer:
                             stop=self._stop, idle_timeout=self.idle_timeout)
         conn = SenderConnection(idle_timeout=self.idle_timeout)
         buf = bytearray(64 * 1024)
+        joined: dict[FetchKey, _PacedFetch] = {}  # the fetches this connection is a lane of
         try:
             while not self._stop.is_set():
                 try:
@@ -154,9 +224,12 @@ class ImageServer:
                     if exc.error_code != udt.UDTException.ETIMEOUT:
                         return
                     continue
-                for event in conn.receive_data(bytes(buf[:n]), time.monotonic()):
+                events = conn.receive_data(bytes(buf[:n]), time.monotonic())
+                while events:
+                    event = events.pop(0)
                     if isinstance(event, FetchRequested):
-                        self._answer(sock, conn, sender, event, peer)
+                        self._answer(sock, conn, sender, event, peer, joined)
+                        events += sender.unhandled()  # the next FETCH behind the receipt
                     elif isinstance(event, PeerErrored | ProtocolErrorDetected):
                         log.info("fetcher %s: %s", peer, event.reason)
                 out = conn.data_to_send()
@@ -167,12 +240,28 @@ class ImageServer:
         except ConnectionLost as exc:
             log.info("fetcher %s lost: %s", peer, exc)
         finally:
+            for key, fetch in joined.items():
+                self._leave(key, fetch, sender)
             with self._lock:
                 self._open -= 1
             _close(sock)
 
+    def _pacing(self, rate: SharedRate) -> tuple[Callable[[float], None],
+                                                 Callable[[int], float] | None]:
+        """A lane's hooks into its fetch's rate: round trips to the probe, and the
+        budget's pacer (None without a budget), under the server's lock."""
+        def answered(seconds: float) -> None:
+            with self._lock:
+                rate.control.round_trip(seconds)
+
+        def paced(n: int) -> float:
+            assert rate.pace is not None
+            with self._lock:
+                return rate.pace.delay(n, time.monotonic())
+        return answered, None if rate.pace is None else paced
+
     def _answer(self, sock: Any, conn: SenderConnection, sender: BulkSender,
-                event: FetchRequested, peer: str) -> None:
+                event: FetchRequested, peer: str, joined: dict[FetchKey, _PacedFetch]) -> None:
         try:
             m = self.manifest(event.name)
         except ManifestError as exc:
@@ -183,13 +272,29 @@ class ImageServer:
         except OSError as exc:
             conn.refuse_fetch(Reason.STORAGE, f"cannot read {event.name}: {exc.strerror}")
             return
-        if event.segment is not None:
-            m = replace(m, segment=event.segment)
         rate = min(r for r in (self.max_rate_bps, event.rate_bps) if r) if (
             self.max_rate_bps or event.rate_bps) else None
-        if rate:  # the fetcher's share of its link budget, never above our own cap
-            sock.UDT_MAXBW = max(1, rate // 8)
-        result = sender.serve(sock, conn, self.directory / event.name, m)
+        fetch = None
+        if event.segment is not None:
+            m = replace(m, segment=event.segment)
+            key = (peer.rpartition(":")[0], event.name, event.segment[1])
+            fetch = joined.get(key)
+            if fetch is None:  # the fetch's budget, never above our own cap
+                fetch = joined[key] = self._join(key, rate)
+            with self._lock:
+                fetch.serving(sender, event.segment)
+                sender.on_round_trip, sender.pace = self._pacing(fetch.rate)
+        elif rate:  # the fetcher's share of its link budget, never above our own cap
+            sender.cap(rate)
+        result = None
+        try:
+            result = sender.serve(sock, conn, self.directory / event.name, m)
+        finally:
+            sender.on_round_trip = sender.pace = None
+            if fetch is not None:
+                with self._lock:
+                    fetch.served(sender, m.length if isinstance(result, TransferResult)
+                                 and result.ok else 0)
         if isinstance(result, int) or result is None:
             self.counters["interrupted"] += 1
             raise ConnectionLost(f"{event.name} interrupted")

@@ -20,7 +20,6 @@ from typing import Any
 from links.udt import products
 from links.udt.fetch_queue import FetchQueue, Priority, Wanted
 from links.udt.image_index import ImageIndex
-from links.udt.lane_plan import LanePlan
 from links.udt.protocol import AtrMetadata, Backoff, Manifest, check_file_name, transfer_id_for
 from links.udt.puller import Puller
 from links.udt.spool import Spool
@@ -136,7 +135,7 @@ class ImageService:
         fetch_budget_bps: int | None = None,
         reserved_bps: Callable[[], float] | None = None,
         fetch_queue: FetchQueue | None = None,
-        fetch_lanes: LanePlan | None = None,
+        fetch_lanes: int = 0,
     ) -> None:
         self.out_dir = Path(out_dir)
         #: vehicle id -> its image server, for announced images ("*": any other vehicle)

@@ -11,6 +11,9 @@ its share to the others), starts lanes one per tick (each opens with a window of
 sent before any pacing applies) and, once every segment is handed out, takes a stalled
 one over on an idle lane (the receiver hands the segment to the newest connection and
 resumes it at the bytes it holds).
+
+:class:`SharedRate` is the pacing itself, shared with the image server, whose answers to
+a fetcher's lanes are paced the same way from the side that sends the data.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from links.udt.lane_plan import Pace, straggler
 from links.udt.protocol import MAX_LANES, Manifest, segment_bounds
@@ -41,6 +44,44 @@ SenderFactory = Callable[[Callable[[int, int], None], Callable[[int], float] | N
                           threading.Event], Any]
 
 
+class CappedLane(Protocol):
+    """What :class:`SharedRate` needs of a lane's sender (a
+    :class:`~links.udt.transfer.BulkSender`)."""
+
+    def acknowledged(self) -> tuple[tuple[int, int] | None, int, bool] | None: ...
+
+    def cap(self, data_bps: float) -> None: ...
+
+
+@dataclass
+class SharedRate:
+    """All lanes of one transfer paced together at the rate a :class:`RateProbe` finds:
+    each lane with data on its way gets an equal share (a lane waiting for an answer or a
+    receipt leaves its share to the others); a lane that joins is paced from its first
+    packet. With a budget, its :class:`Pace` holds the total and the shares get
+    ``HEADROOM``. Not thread-safe: the caller holds its own lock."""
+
+    budget_bps: int | None = None
+    control: RateProbe = field(init=False)
+    pace: Pace | None = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.control = RateProbe(budget_bps=self.budget_bps)
+        self.pace = Pace(self.budget_bps) if self.budget_bps else None
+
+    def joining(self, lanes: int) -> float:
+        """The share of a lane starting now, ``lanes`` lanes running with it."""
+        return lane_share(self.control.rate_bps, lanes)
+
+    def share(self, now: float, acknowledged: int, busy: int) -> float:
+        """Feed the bytes acknowledged so far; return each lane's share (bit/s)."""
+        rate = self.control.sample(now, acknowledged)
+        share = lane_share(rate, busy)
+        if self.pace is not None and rate >= self.pace.rate_bps:
+            share *= HEADROOM  # the budget's pacer holds the total
+        return share
+
+
 def _length(manifest: Manifest, index: int, count: int) -> int:
     start, end = segment_bounds(manifest.size, index, count)
     return end - start
@@ -48,13 +89,17 @@ def _length(manifest: Manifest, index: int, count: int) -> int:
 
 @dataclass
 class LaneRun:
-    """Send the ``count`` segments of ``manifest`` on ``lanes`` lanes (0: adapt)."""
+    """Send the ``count`` segments of ``manifest`` on ``lanes`` lanes (0: adapt).
+
+    ``paced`` False: the far end paces the data (a fetcher's lanes, answered by an image
+    server): lanes still start one per tick, but nothing is capped here."""
 
     make_sender: SenderFactory
     lanes: int
     budget_bps: int | None
     stop: threading.Event
     progress: Callable[[int, int], None] | None = None
+    paced: bool = True
     control: RateProbe | None = None
     results: list[Any] = field(default_factory=list)
     #: lanes started (connections opened, reconnections aside)
@@ -64,9 +109,13 @@ class LaneRun:
     def send(self, path: Path, manifest: Manifest, count: int) -> tuple[Any, list[Any]]:
         """Run every segment; return (the first failed result or None, the idle senders,
         whose open connections can carry the whole-file manifest)."""
-        if self.lanes == 0:
-            self.control = RateProbe(budget_bps=self.budget_bps)
-        pace = Pace(self.budget_bps) if self.budget_bps else None
+        adaptive = self.lanes == 0
+        shared = SharedRate(self.budget_bps) if adaptive and self.paced else None
+        if shared is not None:
+            self.control = shared.control
+            pace = shared.pace
+        else:
+            pace = Pace(self.budget_bps) if self.budget_bps and self.paced else None
         todo = deque(i for i in range(count) if _length(manifest, i, count))
         running: dict[int, threading.Event] = {}
         started: dict[int, tuple[int, float]] = {}  # lane -> (segment, when)
@@ -75,7 +124,7 @@ class LaneRun:
         stored: set[int] = set()
         failures: list[Any] = []
         idle: list[Any] = []
-        wanted = MAX_LANES if self.control is not None else self.lanes
+        wanted = MAX_LANES if adaptive else self.lanes
         senders: dict[int, Any] = {}
         shares: dict[int, float] = {}  # lane -> its share of the rate (bit/s)
         taken_over: set[int] = set()
@@ -86,9 +135,9 @@ class LaneRun:
                 return pace.delay(n, time.monotonic())
 
         def answered(seconds: float) -> None:
-            assert self.control is not None
+            assert shared is not None
             with self._lock:
-                self.control.round_trip(seconds)
+                shared.control.round_trip(seconds)
 
         def run(lane: int, stop: threading.Event, first: int | None) -> None:
             def report(value: int, _total: int) -> None:
@@ -96,7 +145,7 @@ class LaneRun:
                     inflight[lane] = value
 
             sender = self.make_sender(report, paced if pace is not None else None, stop)
-            if self.control is not None:
+            if shared is not None:
                 sender.on_round_trip = answered
             with self._lock:
                 senders[lane] = sender
@@ -143,8 +192,8 @@ class LaneRun:
             stop = threading.Event()
             running[lane] = stop
             self.started += 1
-            if self.control is not None:  # paced from its first packet
-                shares[lane] = lane_share(self.control.rate_bps, len(running))
+            if shared is not None:  # paced from its first packet
+                shares[lane] = shared.joining(len(running))
             threading.Thread(target=run, args=(lane, stop, first), name=f"udt-lane-{lane}",
                              daemon=True).start()
 
@@ -166,11 +215,8 @@ class LaneRun:
                 if self.stop.is_set():
                     for stop in running.values():
                         stop.set()
-                if self.control is not None:
-                    rate = self.control.sample(now, acknowledged)
-                    share = lane_share(rate, len(busy))
-                    if pace is not None and rate >= pace.rate_bps:
-                        share *= HEADROOM  # the budget's pacer holds the total
+                if shared is not None:
+                    share = shared.share(now, acknowledged, len(busy))
                     for lane in running:
                         if shares.get(lane) != share:
                             shares[lane] = share
@@ -179,7 +225,7 @@ class LaneRun:
                 for lane in range(min(wanted, len(todo) + len(running))):
                     if lane not in running and todo and not failures:
                         start(lane)
-                        if self.control is not None:
+                        if adaptive:
                             break  # one new lane per tick
                 if not todo and not failures and len(running) < max(2, wanted):
                     slow = straggler({lane: t for lane, (i, t) in started.items()

@@ -26,7 +26,8 @@ the RECEIPT of that one carries the SHA-256 verdict on the whole file.
 
 Pull. The same exchange runs with the roles of the connection turned round when the
 receiver fetches: it connects to a vehicle's image server and sends FETCH (JSON: file
-name, optional segment); the server answers with the MANIFEST of that file and goes on as
+name, optional segment, optional rate: the budget in bit/s, for a segment the budget of
+all lanes of that fetch together); the server answers with the MANIFEST of that file and goes on as
 the sender above, or with REFUSE (NOT_FOUND) when it has no such file. One connection may
 carry any number of fetches, one after the other.
 
@@ -389,7 +390,8 @@ def transfer_id_for(vehicle_id: str, name: str, sha256: str) -> str:
 def fetch_payload(name: str, segment: tuple[int, int] | None = None,
                   rate_bps: int | None = None) -> bytes:
     """The FETCH payload asking for ``name`` (or one lane's ``segment`` of it), to be sent
-    at most at ``rate_bps`` (the fetcher's share of the link budget)."""
+    at most at ``rate_bps`` (the fetcher's share of the link budget; for a segment, the
+    share of all lanes of the fetch together)."""
     data: dict[str, Any] = {"name": check_file_name(name)}
     if segment is not None:
         data["segment"] = list(_segment(list(segment)) or ())

@@ -1,8 +1,12 @@
 """The relay side of pull: fetch announced images from vehicles' image servers. Does I/O.
 
-Decisions (what next, when again, how many lanes) are :mod:`links.udt.fetch_queue` and
-:mod:`links.udt.lane_plan`; this module connects, sends FETCH and lets the receiver's
-normal machinery store, resume and verify into the spool.
+Decisions (what next, when again) are :mod:`links.udt.fetch_queue`'s; a file of several
+segments comes in on parallel lanes run by :class:`~links.udt.lane_run.LaneRun` as for
+``send-image`` (up to 16, started one per tick, a stalled segment asked for again on a
+fresh lane), each lane a connection asking for segment after segment; the image server
+paces the lanes together, since it sends the data. This module connects, sends FETCH
+and lets the receiver's normal machinery store, resume and verify into the spool; the
+last FETCH, for the whole file, asks for the verdict on a lane's open connection.
 """
 
 from __future__ import annotations
@@ -11,10 +15,13 @@ import logging
 import threading
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from links.udt.fetch_queue import FetchQueue, Verdict, Wanted
-from links.udt.lane_plan import LanePlan
+from links.udt.lane_plan import segments_for
+from links.udt.lane_run import LaneRun
+from links.udt.protocol import MAX_LANES, Manifest
 from links.udt.transfer import (
     BulkReceiver,
     ConnectionLost,
@@ -31,7 +38,8 @@ GaveUpFn = Callable[[Wanted, str], None]
 
 
 class Puller:
-    """One thread fetching queued images, lanes chosen by a :class:`LanePlan`.
+    """One thread fetching queued images, each on ``lanes`` lanes (0: adaptive, paced by
+    the image server; 1: one connection).
 
     ``budget_bps`` is the link's bulk budget, less ``reserved()`` (the JAUS traffic the
     link carries now) at each fetch: the server is asked to keep to what is left.
@@ -39,14 +47,16 @@ class Puller:
 
     def __init__(self, receiver: BulkReceiver, queue: FetchQueue, *,
                  budget_bps: int | None = None, reserved: Callable[[], float] | None = None,
-                 lanes: LanePlan | None = None, connect_timeout: float = 2.0,
+                 lanes: int = 0, connect_timeout: float = 2.0,
                  on_gave_up: GaveUpFn | None = None,
                  progress_of: Callable[[str], int] | None = None) -> None:
         self.receiver = receiver
         self.queue = queue
         self.budget_bps = budget_bps
         self.reserved = reserved
-        self.lanes = lanes or LanePlan()
+        if not 0 <= lanes <= MAX_LANES:
+            raise ValueError(f"lanes must be 0 (adapt) or 1..{MAX_LANES}")
+        self.lanes = lanes
         self.connect_timeout = connect_timeout
         self.on_gave_up = on_gave_up
         self.progress_of = progress_of or (lambda _sha: 0)
@@ -120,43 +130,77 @@ class Puller:
                      max(0.0, verdict.at - time.monotonic()))
 
     def _fetch(self, wanted: Wanted) -> FetchOutcome:
-        lanes = self.lanes.lanes_for(wanted.size or 0)
         rate = self.rate()
-        if lanes <= 1:
-            return self._one(wanted, FetchRequest(wanted.name, wanted.sha256, wanted.size,
-                                                  None, rate))
-        share = None if rate is None else max(1, rate // lanes)
-        outcomes: list[FetchOutcome] = [FetchOutcome("lost", "lane did not finish")] * lanes
-        started = time.monotonic()
+        whole = FetchRequest(wanted.name, wanted.sha256, wanted.size, None, rate)
+        count = segments_for(wanted.size or 0) if self.lanes != 1 else 1
+        if count <= 1:
+            return self._one(wanted, whole)
+        manifest = Manifest(wanted.image_id, wanted.vehicle_id, wanted.name, wanted.size or 0,
+                            wanted.sha256, "", wanted.capture_time)
 
-        def lane(i: int) -> None:
-            outcomes[i] = self._one(wanted, FetchRequest(
-                wanted.name, wanted.sha256, wanted.size, (i, lanes), share))
+        def make_lane(_progress: object, _pace: object, stop: threading.Event) -> _Lane:
+            return _Lane(self, wanted, rate)
 
-        threads = [threading.Thread(target=lane, args=(i,), name=f"udt-pull-lane-{i}",
-                                    daemon=True) for i in range(lanes)]
-        for t in threads:
-            t.start()
-        for t in threads:
-            t.join()
-        self.lanes.observe(lanes, wanted.size or 0, time.monotonic() - started)
-        for o in outcomes:
-            if o.state not in ("stored", "verified"):
-                return o
-        return self._one(wanted, FetchRequest(wanted.name, wanted.sha256, wanted.size,
-                                              None, rate))
+        run = LaneRun(make_lane, self.lanes, None, self._stop, paced=False)
+        failed, idle = run.send(Path(wanted.name), manifest, count)
+        try:
+            if failed is not None:
+                return failed  # type: ignore[no-any-return]
+            closer = idle.pop() if idle else _Lane(self, wanted, rate)
+            return closer.fetch(whole)
+        finally:
+            for lane in idle:
+                lane.close()
+            if failed is None:
+                closer.close()
 
     def _one(self, wanted: Wanted, request: FetchRequest) -> FetchOutcome:
-        host, port = wanted.source
+        lane = _Lane(self, wanted, request.rate_bps)
         try:
-            sock: Any = _connect(wanted.source, self.connect_timeout, None)
-        except ConnectionLost as exc:
-            return FetchOutcome("lost", str(exc))
-        try:
-            outcome = self.receiver.fetch(sock, f"{host}:{port}", request)
-            deadline = time.monotonic() + 1.0
-            while outcome.state != "lost" and _pending(sock) and time.monotonic() < deadline:
-                time.sleep(0.01)  # let the receipt reach the vehicle before closing (no linger)
-            return outcome
+            return lane.fetch(request)
         finally:
-            _close(sock)
+            lane.close()
+
+
+class _Lane:
+    """One connection to an image server, asking for segment after segment: a lane of a
+    :class:`LaneRun` (its ``send_file`` fetches the segment its manifest names)."""
+
+    def __init__(self, puller: Puller, wanted: Wanted, rate: int | None) -> None:
+        self.puller = puller
+        self.wanted = wanted
+        self.rate = rate
+        self.on_round_trip: Callable[[float], None] | None = None
+        self._sock: Any = None
+
+    def send_file(self, _path: object, manifest: Manifest) -> FetchOutcome:
+        w = self.wanted
+        return self.fetch(FetchRequest(w.name, w.sha256, w.size, manifest.segment, self.rate))
+
+    def fetch(self, request: FetchRequest) -> FetchOutcome:
+        host, port = self.wanted.source
+        if self._sock is None:
+            try:
+                self._sock = _connect(self.wanted.source, self.puller.connect_timeout, None)
+            except ConnectionLost as exc:
+                return FetchOutcome("lost", str(exc))
+        outcome = self.puller.receiver.fetch(self._sock, f"{host}:{port}", request)
+        if outcome.state == "lost":
+            self.close()
+        return outcome
+
+    def acknowledged(self) -> None:
+        """Nothing to report: the image server paces the lanes."""
+        return None
+
+    def cap(self, _data_bps: float) -> None:
+        """Nothing to cap here: the image server sends the data."""
+
+    def close(self) -> None:
+        sock, self._sock = self._sock, None
+        if sock is None:
+            return
+        deadline = time.monotonic() + 1.0
+        while _pending(sock) and time.monotonic() < deadline:
+            time.sleep(0.01)  # let the receipt reach the vehicle before closing (no linger)
+        _close(sock)

@@ -474,10 +474,19 @@ class BulkSender:
         One attempt: a result ends the transfer, an int is the bytes reached before a drop,
         None a refusal to retry. The connection stays open for the peer's next request.
         """
-        self._pending_events.clear()
-        answer = self._announce(sock, conn, manifest)
-        result, _keep = self._exchange(sock, conn, path, manifest, answer, [])
+        self._live, self._live_conn = sock, conn
+        try:
+            answer = self._announce(sock, conn, manifest)
+            result, _keep = self._exchange(sock, conn, path, manifest, answer, [])
+        finally:
+            self._live, self._live_conn = None, None
         return result
+
+    def unhandled(self) -> list[Any]:
+        """Events read behind the last answer :meth:`serve` waited for (a fetcher's next
+        FETCH often arrives in one read with its receipt); the caller handles them."""
+        events, self._pending_events = self._pending_events, []
+        return events
 
     def _exchange(self, sock: Any, conn: SenderConnection, path: Path, manifest: Manifest,
                   answer: Any, offsets: list[int]) -> tuple[TransferResult | int | None, bool]:
@@ -617,6 +626,11 @@ class FetchOutcome:
 
     state: str
     reason: str = ""
+
+    @property
+    def ok(self) -> bool:
+        """The file, or the lane's segment, is held."""
+        return self.state in ("stored", "verified")
 
 
 def _mismatch(expect: FetchRequest | None, m: Manifest) -> str:

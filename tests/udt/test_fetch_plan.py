@@ -1,11 +1,10 @@
-"""The fetch scheduling decisions, table-driven: queue order, backoff, retries, lane counts."""
+"""The fetch scheduling decisions, table-driven: queue order, backoff, retries."""
 
 from __future__ import annotations
 
 import pytest
 
 from links.udt.fetch_queue import FetchQueue, Wanted
-from links.udt.lane_plan import LanePlan
 
 SRC = ("127.0.0.1", 9100)
 
@@ -73,25 +72,3 @@ def test_an_image_is_queued_once_and_dropped_when_pushed():
     assert q.add(wanted(1)) and not q.add(wanted(1))
     q.discard(wanted(1).sha256)
     assert len(q) == 0 and q.take(0.0) is None
-
-
-@pytest.mark.parametrize(("goodputs", "lanes"), [
-    # bytes/s seen at the lane count in use, file after file -> lane counts used
-    ([1.0, 2.0, 2.9, 3.0], [2, 3, 4, 5, 4]),      # climbs while it pays, steps back
-    ([1.0, 0.8], [2, 3, 2]),                       # a second lane made it worse
-    ([1.0, 1.9, 2.8, 3.6, 4.4, 5.0], [2, 3, 4, 5, 6, 6, 6]),  # stops at the maximum
-])
-def test_lane_plan_climbs_while_lanes_pay(goodputs, lanes):
-    plan = LanePlan(start=2, maximum=6, min_lane_bytes=1)
-    used = [plan.lanes_for(100)]
-    for rate in goodputs:
-        n = used[-1]
-        used.append(plan.observe(n, 100, 100 / (rate * 100)))
-    assert used == lanes
-
-
-def test_lane_plan_keeps_small_files_on_one_lane():
-    plan = LanePlan(start=4)
-    assert plan.lanes_for(512 * 1024) == 1
-    assert plan.lanes_for(3 << 20) == 3
-    assert plan.lanes_for(64 << 20) == 4

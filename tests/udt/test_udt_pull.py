@@ -100,8 +100,7 @@ def test_fetch_resumes_after_the_connection_is_cut_several_times(tmp_path: Path,
     path, content = make_file(6 << 20, "atr-9.png")
     bus = Bus()
     with UdtBulkChannel.ImageServer(path.parent, max_rate_bps=40_000_000) as server, \
-            service(tmp_path, bus, server.address, fetch_lanes=UdtBulkChannel.LanePlan(
-                start=1, maximum=1)) as relay:
+            service(tmp_path, bus, server.address, fetch_lanes=1) as relay:
         relay.announce(announcement(content, 9))
         cuts = 0
         deadline = time.monotonic() + 30
@@ -185,7 +184,8 @@ def test_queue_fetches_the_most_confident_image_first(tmp_path: Path, make_file)
 
 
 def test_a_large_image_is_fetched_on_parallel_lanes(tmp_path: Path, make_file):
-    """Files of several MiB are fetched on parallel lanes (the plan starts at four)."""
+    """Files of several MiB are fetched on parallel lanes, segment after segment on each
+    connection, paced by the image server."""
     path, content = make_file(8 << 20, "atr-21.png")
     bus = Bus()
     with UdtBulkChannel.ImageServer(path.parent) as server, \
@@ -195,5 +195,9 @@ def test_a_large_image_is_fetched_on_parallel_lanes(tmp_path: Path, make_file):
         wait_for(lambda: server.counters["served"] >= 1, 5, "the server's receipt")
     (stored,) = (tmp_path / "relay").rglob("atr-21.png")
     assert stored.read_bytes() == content
-    assert server.counters["connections"] == 5  # four lanes, then the whole-file verdict
+    # lanes opened one per tick, each asking for several segments; the whole-file
+    # verdict on a lane's open connection
+    assert 2 <= server.counters["connections"] <= 16
+    assert server.counters["served"] > server.counters["connections"]
+    assert server.counters["interrupted"] == 0
     assert [s["transfer_id"] for s in bus.of("ImageProduct")][-1]
