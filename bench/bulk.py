@@ -21,6 +21,10 @@ Run: ``.venv/bin/python bench/bulk.py [--quick]``. Prints a table; asserts nothi
 * ``forwarder``: a relay (``ImageService`` with ``forward``) passes a file on to an
   operator-side receiver through the same lossy proxy, adaptive lanes, no flags; timed
   from the relay's verification to the operator's.
+* ``pull``: the relay fetches an announced image from a vehicle's image server
+  (``serve-images``) through the same lossy proxy, no flags (lanes paced by the image
+  server); timed from the announcement to the relay's verification, the file size of
+  the lanes' rows.
 * ``resume``: a loopback transfer held to 80 Mbit/s is cut (receiver closes every
   connection); the figure is the time from the cut until the receiver has accepted the
   resumed transfer at its offset, with the sender's default backoff.
@@ -29,6 +33,7 @@ Run: ``.venv/bin/python bench/bulk.py [--quick]``. Prints a table; asserts nothi
 from __future__ import annotations
 
 import argparse
+import hashlib
 import logging
 import random
 import statistics
@@ -139,6 +144,37 @@ def forwarded(folder: Path, size: int, loss: float) -> float:
     return size * 8 / (marks["operator"] - marks["relay"]) / 1e6
 
 
+def pulled(folder: Path, size: int, loss: float) -> float:
+    """Goodput (Mbit/s) of the relay fetching an announced image from an image server."""
+    served = folder / f"vehicle{loss}"
+    served.mkdir()
+    content = random.Random(size).randbytes(size)
+    (served / "atr-1.png").write_bytes(content)
+    verified: list[float] = []
+
+    def publish(topic: str, sample: dict) -> None:
+        if topic == "ImageProduct" and sample.get("transfer_id") and not verified:
+            verified.append(time.perf_counter())
+
+    with UdtBulkChannel.ImageServer(served, vehicle_id="uuv1") as server, \
+            separate_process(server.address, loss=loss, delay=0.020, rate_bps=10e6,
+                             queue_bytes=64 * 1024, seed=1, lifetime=600) as (address, _c), \
+            UdtBulkChannel.ImageService(folder / f"puller{loss}", publish=publish,
+                                        publish_data=False,
+                                        sources={"*": f"{address[0]}:{address[1]}"}) as relay:
+        started = time.perf_counter()
+        relay.announce({"vehicle_id": "uuv1", "image_id": "atr-1", "file_name": "atr-1.png",
+                        "size_bytes": size, "sha256": hashlib.sha256(content).hexdigest(),
+                        "transfer_id": "", "format": "png",
+                        "capture_time_ms": 1_700_000_000_000, "targets": []})
+        deadline = time.monotonic() + 180
+        while not verified and time.monotonic() < deadline:
+            time.sleep(0.02)
+    if not verified:
+        raise SystemExit("fetch failed")
+    return size * 8 / (verified[0] - started) / 1e6
+
+
 def resume_time(folder: Path, runs: int) -> list[float]:
     out = []
     for run in range(runs):
@@ -202,6 +238,11 @@ def main() -> None:
         rows.append(("radio 10M/2%/20ms, relay forwarder, adaptive", f"{good:7.2f} Mbit/s",
                      f"{good / 10 * 100:.0f} % of link; {radio_size >> 20} MiB, relay "
                      f"verified -> operator verified"))
+        for loss in (0.02, 0.0):
+            good = pulled(folder, radio_size, loss)
+            rows.append((f"radio 10M/{loss:.0%}/20ms, relay pulls (serve-images)",
+                         f"{good:7.2f} Mbit/s", f"{good / 10 * 100:.0f} % of link; "
+                         f"{radio_size >> 20} MiB, announced -> relay verified"))
         delays = resume_time(folder, 3 if not args.quick else 1)
         if delays:
             rows.append(("resume after a drop", f"{statistics.median(delays) * 1000:7.0f} ms",

@@ -218,7 +218,9 @@ def test_lanes_over_a_lossy_link_survive_a_drop_and_verify(tmp_path: Path, make_
         sender.join(40)
     (result,) = results
     assert result.ok, result.reason
-    assert result.attempts >= 9  # four lanes, each connected twice, then the verdict
+    # every lane came back on a new connection (a lane between two segments at the cut
+    # reconnects on its next one, which its attempts do not count)
+    assert ops.receiver.counters["connections"] >= 8
     assert sum(1 for o in result.resumed_from if o) >= 2
     assert (tmp_path / "ops" / "uuv1" / "img.png").read_bytes() == content
 
