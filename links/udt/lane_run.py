@@ -25,7 +25,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 from links.udt.lane_plan import Pace, straggler
 from links.udt.protocol import MAX_LANES, Manifest, segment_bounds
@@ -42,15 +42,6 @@ lanes together) holds them to it: two limits at the same rate would add their ga
 #: make_sender(progress, pace, stop) -> a BulkSender for one lane
 SenderFactory = Callable[[Callable[[int, int], None], Callable[[int], float] | None,
                           threading.Event], Any]
-
-
-class CappedLane(Protocol):
-    """What :class:`SharedRate` needs of a lane's sender (a
-    :class:`~links.udt.transfer.BulkSender`)."""
-
-    def acknowledged(self) -> tuple[tuple[int, int] | None, int, bool] | None: ...
-
-    def cap(self, data_bps: float) -> None: ...
 
 
 @dataclass
