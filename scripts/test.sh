@@ -8,12 +8,12 @@
 # $EDGE_VIS_TEST_TIMEOUT (seconds, default 1800) bounds each pytest run so a hung test fails
 # instead of blocking CI. `--long` adds the long runs (tests marked `long`: README "Tests").
 #
-# The pytest pass runs as two pytest processes side by side, each on its own half of tests/
-# (GROUP_A below, and everything else): most of the suite's time is spent waiting on
-# sockets, DDS discovery and protocol timers, not on the processor, so the halves overlap
-# well on two cores. Each half's output is shown when it ends. A run in which neither half
-# collects a test (exit 5) is a failure. EDGE_VIS_TEST_SERIAL=1 runs `pytest tests/` as
-# one process instead.
+# The pytest pass runs as three pytest processes side by side, each on its own part of
+# tests/ (PART_A, PART_B below, and everything else): most of the suite's time is spent
+# waiting on sockets, DDS discovery and protocol timers, not on the processor (the pass
+# used under half of one core when run as one process), so the parts overlap well on two
+# cores. Each part's output is shown at the end. A run in which no part collects a test
+# (exit 5) is a failure. EDGE_VIS_TEST_SERIAL=1 runs `pytest tests/` as one process.
 #
 # Then a second pass on the DDS Security binding: `scripts/setup.sh --secure` (Debian's
 # Cyclone DDS 0.10.2 with its security plugins, .venv-secure; set up in the background
@@ -22,8 +22,8 @@
 # (tests/dds, with the secured relays and operator stations in separate processes of
 # tests/dds/test_dds_security.py, skipped on the PyPI binding), the security tooling and
 # operator list, one relay end to end on DDS, and the image receiver on DDS (the one
-# binding difference found so far outside security). About 1 min; it runs after GROUP_A,
-# beside the other half. The whole suite also passes on 0.10.2 but takes far longer there
+# binding difference found so far outside security). About 1.5 min; it runs after the
+# third part, beside the other two. The whole suite also passes on 0.10.2 but takes far longer there
 # (README "Set-up details"). It runs whenever the secure set-up is possible here (Debian
 # packages installed, or apt with root/sudo and the packages available); otherwise it is
 # skipped with the reason. EDGE_VIS_SECURE_PASS=0 skips it, =1 makes it mandatory.
@@ -37,8 +37,10 @@ SECURE_PASS="${EDGE_VIS_SECURE_PASS:-auto}"
 SECURE_TESTS=(tests/dds tests/cli/test_security_cli.py tests/test_security.py
               tests/e2e/test_relay_dds.py
               tests/udt/test_udt_cli.py::test_receive_images_publishes_the_image_on_dds)
-# one half of the pytest pass (about half the time); the other half is the rest of tests/
-GROUP_A=(tests/faults tests/udt tests/bandwidth tests/catalogue tests/jaus tests/routing)
+# the pytest pass in three parts run side by side: these two, and the rest of tests/ (then
+# the secure pass), each about a third of the time
+PART_A=(tests/faults tests/udt tests/bandwidth tests/catalogue tests/jaus tests/routing)
+PART_B=(tests/e2e tests/deploy tests/dds tests/engine tests/links tests/sim)
 SERIAL="${EDGE_VIS_TEST_SERIAL:-0}"
 LOGS="$(mktemp -d "${TMPDIR:-/tmp}/edge-vis-test.XXXXXX")"
 trap 'rm -rf "$LOGS"' EXIT
@@ -136,27 +138,33 @@ if [[ "$SERIAL" == 1 ]]; then
 fi
 
 ignore=()
-for path in "${GROUP_A[@]}"; do ignore+=("--ignore=$path"); done
-echo "test: pytest -q ${GROUP_A[*]}  |  pytest -q tests/ (the rest), side by side" >&2
+for path in "${PART_A[@]}" "${PART_B[@]}"; do ignore+=("--ignore=$path"); done
+echo "test: pytest -q, three parts side by side: ${PART_A[*]} | ${PART_B[*]} |" \
+     "tests/ (the rest)" >&2
 start=$SECONDS
-( run_pytest a "$VPY" "${GROUP_A[@]}" "$@" >"$LOGS/a.log" 2>&1
-  echo "test: first half done after $((SECONDS - start)) s" >&2
-  if [[ "$secure" == 1 ]]; then
-      secure_pass "$@" >"$LOGS/secure.log" 2>&1
-      echo "test: DDS Security pass done after $((SECONDS - start)) s" >&2
-  fi ) &
-first=$!
-run_pytest b "$VPY" tests/ "${ignore[@]}" "$@" >"$LOGS/b.log" 2>&1
-echo "test: second half done after $((SECONDS - start)) s" >&2
-wait "$first"
+( run_pytest a "$VPY" "${PART_A[@]}" "$@" >"$LOGS/a.log" 2>&1
+  echo "test: part A done after $((SECONDS - start)) s" >&2 ) &
+part_a=$!
+( run_pytest b "$VPY" "${PART_B[@]}" "$@" >"$LOGS/b.log" 2>&1
+  echo "test: part B done after $((SECONDS - start)) s" >&2 ) &
+part_b=$!
+run_pytest rest "$VPY" tests/ "${ignore[@]}" "$@" >"$LOGS/rest.log" 2>&1
+echo "test: the rest done after $((SECONDS - start)) s" >&2
+if [[ "$secure" == 1 ]]; then
+    secure_pass "$@" >"$LOGS/secure.log" 2>&1
+    echo "test: DDS Security pass done after $((SECONDS - start)) s" >&2
+fi
+wait "$part_a" "$part_b"
 
-echo "===== pytest ${GROUP_A[*]} =====" >&2
-cat "$LOGS/a.log"
-echo "===== pytest tests/ (the rest) =====" >&2
-cat "$LOGS/b.log"
-report a "pytest ${GROUP_A[*]}"
-report b "pytest tests/ (the rest)"
-if [[ "$(cat "$LOGS/a.rc" "$LOGS/b.rc" 2>/dev/null | sort -u | tr -d '\n')" == 5 ]]; then
+for part in a:"${PART_A[*]}" b:"${PART_B[*]}" rest:"tests/ (the rest)"; do
+    echo "===== pytest ${part#*:} =====" >&2
+    cat "$LOGS/${part%%:*}.log"
+done
+report a "pytest ${PART_A[*]}"
+report b "pytest ${PART_B[*]}"
+report rest "pytest tests/ (the rest)"
+if [[ "$(cat "$LOGS/a.rc" "$LOGS/b.rc" "$LOGS/rest.rc" 2>/dev/null | sort -u | tr -d '\n')" == 5 ]]
+then
     echo "test: FAILED: pytest collected no tests" >&2
     status=1
 fi
