@@ -39,7 +39,8 @@ SECURE_TESTS=(tests/dds tests/cli/test_security_cli.py tests/test_security.py
               tests/udt/test_udt_cli.py::test_receive_images_publishes_the_image_on_dds)
 # the pytest pass in three parts run side by side: these two, and the rest of tests/ (then
 # the secure pass), each about a third of the time
-PART_A=(tests/faults tests/udt tests/bandwidth tests/catalogue tests/jaus tests/routing)
+PART_A=(tests/faults tests/udt tests/bandwidth tests/codec tests/catalogue tests/jaus
+        tests/routing)
 PART_B=(tests/e2e tests/deploy tests/dds tests/engine tests/links tests/sim)
 SERIAL="${EDGE_VIS_TEST_SERIAL:-0}"
 LOGS="$(mktemp -d "${TMPDIR:-/tmp}/edge-vis-test.XXXXXX")"
