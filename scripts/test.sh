@@ -6,7 +6,7 @@
 # Runs scripts/setup.sh, then `ruff check .`, `mypy` (the core packages, as configured in
 # pyproject.toml) and pytest on tests/. All always run so one report shows every problem.
 # $EDGE_VIS_TEST_TIMEOUT (seconds, default 1800) bounds each pytest run so a hung test fails
-# instead of blocking CI. `--long` adds the long runs (tests marked `long`: README "Tests").
+# instead of blocking CI. `--long` adds the long runs (tests marked `long`: README "Long runs").
 #
 # The pytest pass runs as three pytest processes side by side, each on its own part of
 # tests/ (PART_A, PART_B below, and everything else): most of the suite's time is spent

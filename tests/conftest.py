@@ -32,14 +32,14 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     parser.addoption(
         "--long", action="store_true", default=False,
         help="also run the long tests (marked 'long': full fuzz runs, the two-demo load "
-             "test); the default suite keeps a short variant of each (README 'Tests')",
+             "test); the default suite keeps a short variant of each (README 'Long runs')",
     )
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     if config.getoption("--long"):
         return
-    later = pytest.mark.skip(reason="long run: add --long to run it (README 'Tests')")
+    later = pytest.mark.skip(reason="long run: add --long to run it (README 'Long runs')")
     for item in items:
         if "long" in item.keywords:
             item.add_marker(later)
