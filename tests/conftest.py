@@ -31,8 +31,8 @@ _DOMAIN_BASE = 20 + os.getpid() % 150
 def pytest_addoption(parser: pytest.Parser) -> None:
     parser.addoption(
         "--long", action="store_true", default=False,
-        help="also run the long tests (marked 'long': full fuzz runs, the two-demo load "
-             "test); the default suite keeps a short variant of each (README 'Long runs')",
+        help="the long runs too: tests marked 'long', and the full size of tests that have "
+             "a short one (the fuzz runs: 4,000 inputs, not 500); README 'Long runs'",
     )
 
 
