@@ -5,6 +5,8 @@
     .venv/bin/python bench/footprint.py --bundle dist/edge-vis.pyz --no-dds
     .venv/bin/python bench/footprint.py --only forwarder --callgrind   # + instructions/msg
     .venv/bin/python bench/footprint.py --only forwarder --burst 0 --cycles 2 --paths serial:2
+    .venv/bin/python bench/footprint.py --only forwarder --burst 0 --cycles 10 \
+        --paths serial:10,thread:10,bare:10,tbare:10          # the link thread beside the loop
 
 Parts, each in its own process so that one does not colour another's memory:
 
@@ -26,8 +28,11 @@ Parts, each in its own process so that one does not colour another's memory:
    ``clear_refs``), and the resident memory over ``--settle`` seconds after it
    (``VmRSS``), against the idle figure before. udp->serial and the floor are measured
    again with each UDP receive cycle of ``--cycles`` (the link's ``cycle`` option; the
-   floor reads on the same timer), and every path reports the time from send to arrival
-   at the sink (p50 / p99) at each rate. ``--paths serial:5,bare:0`` picks forwarders.
+   floor reads on the same timer), and so is udp->serial with the UDP link's ``thread=1``
+   (reading, routing and writing on the link's own thread, which sleeps the cycle) beside
+   its floor, a plain thread doing the same system calls; every path reports the time
+   from send to arrival at the sink (p50 / p99) at each rate. ``--paths
+   serial:5,thread:10,bare:0,tbare:10`` picks forwarders.
 2. **JAUS report -> DDS sample**: ``bench/engine.py``'s pipeline (router, catalogue,
    engine, mobility translator, ``DdsBridge.publish`` to a real Cyclone writer) fed
    ReportGlobalPose at a paced 1,000 reports/s; CPU = ``time.process_time`` (all threads,
@@ -168,15 +173,17 @@ FWD_RELAY = JausAddress(200, 1, 1)
 BURST_WINDOW = 1024
 
 
-def forwarder_main(in_port: int, out: str, cycle: float = 0.0) -> None:
+def forwarder_main(in_port: int, out: str, cycle: float = 0.0, thread: bool = False) -> None:
     """The process under test: a router between a UDP link and ``out``; ``cycle`` is
-    the UDP link's option of that name (and the bare loop's equivalent).
+    the UDP link's option of that name (and the bare loop's equivalent), ``thread`` its
+    ``thread`` option.
 
     Reads commands from stdin: ``usage`` answers ``utime stime`` (seconds) on stdout;
     ``reset`` clears the peak resident memory; end of file stops it.
     """
     from edge_vis.routing.link import create_link
     from edge_vis.routing.router import Router
+    from edge_vis.shell import sharedloop
     from edge_vis.tools.testing import RouterNode
 
     if (os.cpu_count() or 1) > 1:
@@ -199,9 +206,13 @@ def forwarder_main(in_port: int, out: str, cycle: float = 0.0) -> None:
         if out.startswith("bare+"):
             await bare(loop, done)
             return
+        if out.startswith("tbare+"):
+            await bare_thread(done)
+            return
         node = RouterNode(Router([FWD_RELAY]), [
             create_link(f"udp://{FWD_IP}:{in_port}?multicast=off"
-                        + (f"&cycle={cycle:g}" if cycle else ""), name="in"),
+                        + (f"&cycle={cycle:g}" if cycle else "")
+                        + ("&thread=1" if thread else ""), name="in"),
             create_link(out, name="out"),
         ])
         await node.start()
@@ -255,7 +266,49 @@ def forwarder_main(in_port: int, out: str, cycle: float = 0.0) -> None:
         sock.close()
         os.close(fd)
 
-    asyncio.run(run())
+    async def bare_thread(done: asyncio.Future[None]) -> None:
+        """The floor of ``thread=1``: the same system calls on a plain thread that waits
+        in ``poll`` for the first datagram and sleeps the cycle between reads."""
+        import threading
+
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        sock.bind((FWD_IP, in_port))
+        sock.setblocking(False)
+        fd = os.open(out.split("//", 1)[1].split("?")[0], os.O_RDWR | os.O_NOCTTY)
+        os.set_blocking(fd, False)
+        buffer = memoryview(bytearray(65535))
+        stop = False
+
+        def serve() -> None:
+            poller = select.poll()
+            poller.register(sock.fileno(), select.POLLIN)
+            while not stop:
+                if not poller.poll(200):
+                    continue
+                while True:
+                    frames: list[bytes] = []
+                    while True:
+                        try:
+                            size, _ = sock.recvfrom_into(buffer)
+                        except BlockingIOError:
+                            break
+                        frames.append(b"\x10\x01\x02" + buffer[:size].tobytes())
+                    if not frames:
+                        break
+                    os.write(fd, b"".join(frames))
+                    if cycle:
+                        time.sleep(cycle)
+
+        worker = threading.Thread(target=serve, daemon=True)
+        worker.start()
+        print("ready", flush=True)
+        await done
+        stop = True
+        worker.join()
+        sock.close()
+        os.close(fd)
+
+    sharedloop.run(run())
 
 
 class Forwarder:
@@ -271,12 +324,12 @@ class Forwarder:
         self.tx.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 1 << 22)
         udp: socket.socket | None = None
         master: int | None = None
-        if kind in ("serial", "bare"):
+        if kind in ("serial", "bare", "thread", "tbare"):
             master, slave = os.openpty()
             tty.setraw(slave)
             out = f"serial://{os.ttyname(slave)}?baud=20000000&pace=0"
-            if kind == "bare":
-                out = "bare+" + out
+            if kind in ("bare", "tbare"):
+                out = f"{kind}+" + out
             os.set_blocking(master, False)
             self._slave = slave
         else:
@@ -288,7 +341,7 @@ class Forwarder:
         self.sink = Sink(udp, master)
         self.proc = subprocess.Popen(
             [*wrapper, sys.executable, __file__, "--forwarder", str(self.in_port), out,
-             str(cycle)],
+             str(cycle), "thread" if kind == "thread" else ""],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
         assert self.proc.stdout is not None and self.proc.stdin is not None
         assert self.proc.stdout.readline().strip() == "ready"
@@ -313,7 +366,7 @@ class Forwarder:
         loop, whose frames carry no CRC). The send time in each payload also keeps the
         runs distinct for the duplicate filter."""
         total = int(rate * seconds)
-        if self.kind == "bare":
+        if self.kind in ("bare", "tbare"):
             self.run += 1
             self.sink.count()
         else:
@@ -340,7 +393,7 @@ class Forwarder:
         return counted, self.cpu() - cpu0, latencies
 
     def _collect(self, latencies: list[int]) -> int:
-        if self.kind == "bare":
+        if self.kind in ("bare", "tbare"):
             return self.sink.count()
         arrived = time.perf_counter_ns()
         stamps = self.sink.drain()
@@ -405,16 +458,20 @@ def rss(pid: int) -> float:
 
 
 KINDS = {"serial": "udp->serial", "udp": "udp->udp",
-         "bare": "floor: bare asyncio udp->pty loop"}
+         "bare": "floor: bare asyncio udp->pty loop",
+         "thread": "udp->serial, thread=1",
+         "tbare": "floor: bare thread udp->pty loop"}
+#: what is measured without a cycle, and with each cycle
+NO_CYCLE = ("serial", "udp", "bare")
+WITH_CYCLE = ("serial", "thread", "bare", "tbare")
 
 
 def paths(args: argparse.Namespace) -> list[tuple[str, float, str]]:
     """(kind, cycle in s, label) of every forwarder measured: each path without a cycle,
     then udp->serial and the floor with each of ``--cycles``."""
-    out = [(kind, 0.0, label) for kind, label in KINDS.items()]
+    out = [(kind, 0.0, KINDS[kind]) for kind in NO_CYCLE]
     for ms in (c for c in args.cycles if c > 0):
-        out += [(kind, ms / 1000, f"{KINDS[kind]}, cycle={ms:g} ms")
-                for kind in ("serial", "bare")]
+        out += [(kind, ms / 1000, f"{KINDS[kind]}, cycle={ms:g} ms") for kind in WITH_CYCLE]
     return [p for p in out if not args.paths or p[2] in args.paths
             or f"{p[0]}:{p[1] * 1000:g}" in args.paths]
 
@@ -645,7 +702,8 @@ def relay_part(args: argparse.Namespace) -> tuple[list[tuple[str, str, str]], bo
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["--forwarder"]:
-        forwarder_main(int(argv[1]), argv[2], float(argv[3]) if len(argv) > 3 else 0.0)
+        forwarder_main(int(argv[1]), argv[2], float(argv[3]) if len(argv) > 3 else 0.0,
+                       argv[4:5] == ["thread"])
         return 0
     if argv[:1] == ["--engine"]:
         engine_main(float(argv[1]))
@@ -660,7 +718,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", choices=("forwarder", "engine", "relay"),
                         help="run one part only")
     parser.add_argument("--cycles", type=lambda t: [float(x) for x in t.split(",") if x],
-                        default=[1.0, 5.0],
+                        default=[1.0, 5.0, 10.0],
                         help="UDP link cycles to measure, ms, comma separated (0: none)")
     parser.add_argument("--paths", type=lambda t: t.split(","), default=[],
                         help="forwarder paths to measure, e.g. serial:0,serial:5,bare:0")

@@ -21,8 +21,11 @@ gets a clear error instead of silently splitting its bytes with the relay.
 
 The framing is :mod:`edge_vis.jaus.serial_framing` (sans-I/O). This module opens the port with
 pyserial (which sets the line discipline and speed) and then reads and writes its file
-descriptor from the asyncio loop with ``add_reader``/``add_writer``: no threads. The peer
-address of every received packet is the device path (a serial line is point to point).
+descriptor from the asyncio loop with ``add_reader``/``add_writer``: no threads of its own.
+A link forwarding on its own thread (``udp://...?thread=1``) may hand it packets from that
+thread (holding the relay's lock, see :mod:`edge_vis.shell.sharedloop`): they are written
+at once as usual, and whatever must wait (pacing, a full port) is left to the loop. The
+peer address of every received packet is the device path (a serial line is point to point).
 """
 
 from __future__ import annotations
@@ -44,6 +47,7 @@ from edge_vis.jaus.serial_framing import FRAME_OVERHEAD, SerialDeframer, SerialE
 from edge_vis.jaus.transport import Packet
 from edge_vis.routing.link import Link, LinkOptions, LinkUrl, Peer
 from edge_vis.schema import setting
+from edge_vis.shell.sharedloop import on_loop_thread
 
 log = logging.getLogger(__name__)
 
@@ -214,17 +218,25 @@ class SerialLink(Link):
         if self._fd is None:
             self.counters.dropped("link down", len(packets))
             return
+        if not packets:
+            return
         out, frames = self._out, self._frames
         before = len(out)
-        sent = 0
-        for packet in packets:
-            if len(out) > MAX_WRITE_BUFFER:
-                self.counters.dropped("send buffer full", len(packets) - sent)
-                break
-            data = frame(packet)
-            out += data
-            frames.append(len(data))
-            sent += 1
+        framed = list(map(frame, packets))
+        lengths = list(map(len, framed))
+        if before + sum(lengths) - lengths[-1] <= MAX_WRITE_BUFFER:  # all fit (usual)
+            out += b"".join(framed)
+            frames.extend(lengths)
+            sent = len(framed)
+        else:
+            sent = 0
+            for data in framed:
+                if len(out) > MAX_WRITE_BUFFER:
+                    self.counters.dropped("send buffer full", len(packets) - sent)
+                    break
+                out += data
+                frames.append(len(data))
+                sent += 1
         if sent:
             self.counters.sent(self.path, len(out) - before, sent)
         # the frames of one call share one system call (the router hands over everything
@@ -287,10 +299,16 @@ class SerialLink(Link):
                 written = 0
             except OSError as exc:
                 if exc.errno not in (errno.EAGAIN, errno.EWOULDBLOCK):
+                    if not on_loop_thread(loop):  # the loop retries, and goes down
+                        self._pump_handle = loop.call_soon_threadsafe(self._pump)
+                        return
                     self._lost(f"write {self.path}: {exc.strerror or exc}")
                     return
                 written = 0
             if written == 0:  # the port is full: wait until it drains
+                if not on_loop_thread(loop):
+                    self._pump_handle = loop.call_soon_threadsafe(self._pump)
+                    return
                 loop.add_writer(fd, self._writable)
                 self._writer_armed = True
                 return
@@ -299,13 +317,20 @@ class SerialLink(Link):
             if self.pace:
                 self._budget -= written
         if out:
+            if not on_loop_thread(loop):  # the loop paces the rest
+                self._pump_handle = loop.call_soon_threadsafe(self._pump)
+                return
             wait = (1.0 - self._budget) / self.bytes_per_second if self.pace else 0.0
             self._pump_handle = loop.call_later(max(wait, 0.0005), self._pump)
 
     def _written(self, count: int) -> None:
         """``count`` bytes left the buffer: advance the frame bookkeeping."""
-        self._urgent_bytes = max(0, self._urgent_bytes - count)
         frames = self._frames
+        if not self._out:  # all written (the usual case): no frame left to track
+            frames.clear()
+            self._head_sent = self._urgent_bytes = 0
+            return
+        self._urgent_bytes = max(0, self._urgent_bytes - count)
         count += self._head_sent
         while frames and count >= frames[0]:
             count -= frames.popleft()

@@ -29,6 +29,16 @@ URL::
   while traffic flows, an emergency stop from the network included (it cannot be told
   apart before it is read). Sending is never delayed: ``send`` and ``send_urgent``
   write at once, whatever the cycle.
+* ``thread=1``: read the socket on a thread of the link's own instead of the asyncio
+  loop. The thread waits for the first datagram after a quiet cycle, then reads a
+  cycle's datagrams at a time and hands them to the runtime right there (which routes,
+  forwards and writes them on that thread), and sleeps the ``cycle`` with a plain
+  blocking call, which costs the process a fraction of a turn of the event loop (see the
+  README's Footprint figures). The relay's event loop and the link threads share one
+  lock (:mod:`edge_vis.shell.sharedloop`), so the router, the engine and the links are
+  used by one thread at a time: duplicate filtering, pacing, the urgent path and the
+  counters behave as without the thread. Needs the relay's event loop (``edge-vis run``,
+  or ``sharedloop.run``); the latency cost is the cycle's, as above.
 
 The protocol logic (datagram layout) is :mod:`edge_vis.jaus.transport`; this module only
 moves bytes. A datagram that does not decode is counted as malformed and dropped whole.
@@ -41,9 +51,14 @@ is a factor of two.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import ipaddress
 import logging
+import os
+import select
 import socket
+import threading
+import time
 from collections import OrderedDict, deque
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -53,6 +68,7 @@ from edge_vis.errors import DecodeError, LinkError
 from edge_vis.jaus.transport import JUDP_VERSION, Packet, encode_packet, unpack_datagram
 from edge_vis.routing.link import Link, LinkOptions, LinkUrl, Peer, parse_peers
 from edge_vis.schema import setting
+from edge_vis.shell.sharedloop import on_loop_thread, shared_lock
 
 log = logging.getLogger(__name__)
 
@@ -111,6 +127,8 @@ class UdpOptions(LinkOptions):
     pack: bool = False
     #: seconds between reads while traffic flows; 0: read each datagram as it arrives
     cycle: float = setting(0.0, ge=0, le=0.1, unit="s")
+    #: receive (and forward) on a thread of the link's own, sleeping ``cycle`` between reads
+    thread: bool = False
 
 
 class UdpLink(Link):
@@ -156,6 +174,11 @@ class UdpLink(Link):
         # relay's resident memory then creeps up for hours)
         self._buffer = memoryview(bytearray(MAX_DATAGRAM))
         self.local_address: tuple[str, int] | None = None
+        self.threaded = opts.thread
+        self._thread: threading.Thread | None = None
+        self._thread_done: asyncio.Future[None] | None = None
+        self._stopping = False
+        self._wake: tuple[int, int] | None = None  # pipe that ends the thread's wait
 
     # -- life cycle ------------------------------------------------------------------
     async def _open(self) -> None:
@@ -184,16 +207,40 @@ class UdpLink(Link):
         self.local_address = sock.getsockname()
         self._sock = sock
         self._loop = loop
-        loop.add_reader(sock.fileno(), self._readable)
+        if not self.threaded:
+            loop.add_reader(sock.fileno(), self._readable)
+            return
+        lock = shared_lock(loop)
+        if lock is None:
+            sock.close()
+            self._sock = None
+            raise LinkError(f"{self.name}: thread=1 needs the relay's event loop "
+                            "(edge_vis.shell.sharedloop.run), not a plain asyncio loop")
+        self._wake = os.pipe()
+        self._thread_done = loop.create_future()
+        self._thread = threading.Thread(target=self._serve, args=(lock,), daemon=True,
+                                        name=f"edge-vis link {self.name}")
+        self._thread.start()
 
     async def _close(self) -> None:
         sock = self._sock
-        if sock is not None and self._loop is not None:
+        if self._thread is not None and self._wake is not None:
+            self._stopping = True
+            os.write(self._wake[1], b"x")
+            if self._thread_done is not None:
+                await self._thread_done  # the loop lets go of the lock while it waits
+            self._thread.join(1.0)  # past its last use of the lock: it only returns
+            self._thread = None
+            for fd in self._wake:
+                os.close(fd)
+            self._wake = None
+        elif sock is not None and self._loop is not None:
             if self._tick is not None:
                 self._tick.cancel()
                 self._tick = None
             else:
                 self._loop.remove_reader(sock.fileno())
+        if sock is not None and self._loop is not None:
             if self._backlog:
                 self._loop.remove_writer(sock.fileno())
                 self.counters.dropped("link closed", len(self._backlog))
@@ -252,8 +299,8 @@ class UdpLink(Link):
                 else:
                     self.counters.sent(target, len(data), count)
         if held:
-            if not self._backlog and self._loop is not None:
-                self._loop.add_writer(sock.fileno(), self._writable)
+            if not self._backlog:
+                self._arm_writer()
             for item in reversed(held):
                 self._backlog.appendleft(item)
                 self._backlog_bytes += len(item[0])
@@ -263,10 +310,20 @@ class UdpLink(Link):
         if self._backlog_bytes + len(data) > MAX_WRITE_BUFFER:
             self.counters.dropped("send buffer full", count)
             return
-        if not self._backlog and self._sock is not None and self._loop is not None:
-            self._loop.add_writer(self._sock.fileno(), self._writable)
+        if not self._backlog:
+            self._arm_writer()
         self._backlog.append((data, target, count))
         self._backlog_bytes += len(data)
+
+    def _arm_writer(self) -> None:
+        """Wait until the socket takes more (the loop does; a link thread asks it to)."""
+        loop, sock = self._loop, self._sock
+        if loop is None or sock is None:
+            return
+        if on_loop_thread(loop):
+            loop.add_writer(sock.fileno(), self._writable)
+        else:
+            loop.call_soon_threadsafe(self._arm_writer)
 
     def _writable(self) -> None:
         sock = self._sock
@@ -349,6 +406,38 @@ class UdpLink(Link):
         else:
             loop.add_reader(sock.fileno(), self._readable)
 
+    def _serve(self, lock: threading.Lock) -> None:
+        """The link thread (``thread=1``): wait for a datagram, then read, route and send
+        a cycle's worth at a time, holding the relay's lock only while doing so."""
+        assert self._sock is not None and self._wake is not None and self._loop is not None
+        poller = select.poll()
+        poller.register(self._sock.fileno(), select.POLLIN)
+        poller.register(self._wake[0], select.POLLIN)
+        cycle = self.cycle
+        try:
+            while not self._stopping:
+                poller.poll()  # until the first datagram after a quiet cycle (or close)
+                while True:
+                    with lock:
+                        if self._stopping or self._sock is None:
+                            return
+                        try:
+                            count = self._drain()
+                        except Exception as exc:  # the thread must survive what it carries
+                            log.exception("%s: error while forwarding", self.name)
+                            self.counters.dropped("receive error")
+                            self.counters.last_error = f"forwarding: {exc}"
+                            count = 0
+                    if not count:
+                        break
+                    if cycle and count < READ_BATCH:
+                        time.sleep(cycle)
+        finally:
+            done = self._thread_done
+            if done is not None:
+                with contextlib.suppress(RuntimeError):  # the loop is already closed
+                    self._loop.call_soon_threadsafe(_set_done, done)
+
     def _drain(self) -> int:
         """Read every datagram waiting (up to ``READ_BATCH``), deliver them; return how
         many were read.
@@ -376,7 +465,7 @@ class UdpLink(Link):
                 continue
             count += 1
             try:  # each packet copies its own bytes out of the buffer
-                packets = unpack_datagram(buffer[:size])
+                packets = unpack_datagram(buffer, size)
             except DecodeError as exc:
                 self._malformed(addr, str(exc), buffer[:size].tobytes())
                 continue
@@ -401,6 +490,11 @@ class UdpLink(Link):
             if len(learned) > MAX_LEARNED:
                 learned.popitem(last=False)
                 self.counters.dropped("learned peers forgotten: table full")
+
+
+def _set_done(done: asyncio.Future[None]) -> None:
+    if not done.done():
+        done.set_result(None)
 
 
 def _is_multicast(text: str) -> bool:

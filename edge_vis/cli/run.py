@@ -34,6 +34,7 @@ from edge_vis.config import (
 )
 from edge_vis.errors import ConfigError
 from edge_vis.jaus.address import JausAddress
+from edge_vis.shell import sharedloop
 from edge_vis.shell.memory import tune_allocator
 from edge_vis.shell.relay import Runtime
 from edge_vis.shell.service import Supervisor
@@ -147,7 +148,7 @@ def run(args: argparse.Namespace) -> int:
     refuse_half_secured(profile, dds=not args.no_dds)
     runtime = Runtime(profile, publisher_factory=None if args.no_dds else "dds",
                       mirror=_mirror(args))
-    asyncio.run(_main(runtime, args.duration, lambda: build_profile(args)))
+    sharedloop.run(_main(runtime, args.duration, lambda: build_profile(args)))
     return 0
 
 

@@ -87,4 +87,20 @@ def _from_id(value: int) -> JausAddress:
     return JausAddress((value >> 16) & 0xFFFF, (value >> 8) & 0xFF, value & 0xFF)
 
 
+#: addresses decoded so far, by ID: the packet decoder looks them up inline (a dict
+#: lookup costs a fraction of a call through ``lru_cache``); bounded by
+#: :func:`address_from_id`, which fills it
+ADDRESSES: dict[int, JausAddress] = {}
+
+
+def address_from_id(value: int) -> JausAddress:
+    """:meth:`JausAddress.from_id`, remembered in :data:`ADDRESSES` (at most 4,096)."""
+    address = ADDRESSES.get(value)
+    if address is None:
+        if len(ADDRESSES) >= 4096:
+            ADDRESSES.clear()
+        address = ADDRESSES[value] = _from_id(value)
+    return address
+
+
 BROADCAST = JausAddress(SUBSYSTEM_WILDCARD, NODE_WILDCARD, COMPONENT_WILDCARD)

@@ -33,7 +33,6 @@ it yields whole frames or specific errors. Theory of operation:
 
 from __future__ import annotations
 
-import functools
 import struct
 from binascii import crc_hqx
 from dataclasses import dataclass
@@ -83,14 +82,30 @@ def crc16(data: bytes | bytearray | memoryview, crc: int = 0xFFFF) -> int:
     return rev[crc & 0xFF] << 8 | rev[crc >> 8]
 
 
-@functools.lru_cache(maxsize=256)
-def _framed_head(length: int) -> tuple[bytes, int]:
-    """``DLE SOH``, the stuffed version and length, ``DLE STX``; and the header CRC.
+#: :func:`_framed_head` by message length, looked up inline by :func:`frame`
+_HEADS: dict[int, tuple[bytes, int]] = {}
 
-    The same for every message of one length: computed once per length.
+
+def _framed_head(length: int) -> tuple[bytes, int]:
+    """Everything of a frame that depends only on its message's length: ``DLE SOH``, the
+    stuffed version and length, ``DLE STX`` and the stuffed header CRC; and the packet
+    CRC's register after the header CRC (bit-reversed, for ``crc_hqx``: see :func:`crc16`).
     """
     head = _HEAD.pack(JUDP_VERSION, length)
-    return _START + head.replace(_DLE, _DLE2) + _MID, crc16(head)
+    crc = crc16(head)
+    crc_bytes = _U16.pack(crc)
+    rev = _REVERSED
+    register = crc_hqx(crc_bytes.translate(rev), rev[crc & 0xFF] << 8 | rev[crc >> 8])
+    if len(_HEADS) >= 256:
+        _HEADS.clear()
+    found = _HEADS[length] = (
+        _START + head.replace(_DLE, _DLE2) + _MID + crc_bytes.replace(_DLE, _DLE2), register)
+    return found
+
+
+#: the stuffed byte that ends a frame for each value of half the ``crc_hqx`` register
+_TAIL = tuple(bytes((_REVERSED[b],)).replace(bytes((DLE,)), bytes((DLE, DLE)))
+              for b in range(256))
 
 
 def stuff(data: bytes) -> bytes:
@@ -99,12 +114,18 @@ def stuff(data: bytes) -> bytes:
 
 
 def frame(packet: Packet) -> bytes:
-    """The bytes on the line for one packet (framed, CRCs computed, DLE-stuffed)."""
-    message = encode_packet(packet)
-    start, header_crc = _framed_head(len(message))
-    body = _U16.pack(header_crc) + message
-    packet_crc = _U16.pack(crc16(body, header_crc))
-    return b"".join((start, body.replace(_DLE, _DLE2), _END, packet_crc.replace(_DLE, _DLE2)))
+    """The bytes on the line for one packet (framed, CRCs computed, DLE-stuffed).
+
+    :func:`crc16` written out: this runs once per packet sent on a serial link.
+    """
+    message = packet.wire
+    if message is None:
+        message = encode_packet(packet)
+    start, register = _HEADS.get(len(message)) or _framed_head(len(message))
+    crc = crc_hqx(message.translate(_REVERSED), register)
+    # the packet CRC, little-endian, is the bit-reversed register's bytes in swapped order
+    return b"".join((start, message.replace(_DLE, _DLE2), _END, _TAIL[crc >> 8],
+                     _TAIL[crc & 0xFF]))
 
 
 @dataclass(frozen=True, slots=True)

@@ -27,9 +27,10 @@ import struct
 from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from enum import IntEnum
+from typing import Any
 
 from edge_vis.errors import DecodeError, EncodeError, UnsupportedError
-from edge_vis.jaus.address import JausAddress
+from edge_vis.jaus.address import ADDRESSES, JausAddress, address_from_id
 
 JUDP_VERSION = 2
 #: data size of a message with an empty payload (header 12 bytes + sequence number 2)
@@ -41,7 +42,7 @@ _HEAD = struct.Struct("<BHBII")  # type/hc, data size, flags, destination, sourc
 _HEAD_HC = struct.Struct("<BHBBBII")  # with HC number and HC length
 _SEQ = struct.Struct("<H")
 _CODE = struct.Struct("<H")
-_from_id = JausAddress.from_id
+_from_id = address_from_id  # cached: two per packet header
 
 
 class Priority(IntEnum):
@@ -146,30 +147,38 @@ class Packet:
 
 
 class _Decoded:
-    """Builds a :class:`Packet` for :func:`decode_packet` at a fifth of the cost.
+    """Builds a :class:`Packet` for the decoder at a fraction of the cost.
 
     A frozen dataclass sets each of its 13 fields through ``object.__setattr__``, the
-    most expensive step of receiving a datagram. This class has the very same slots,
-    assigns them directly, then becomes a ``Packet`` (``__class__`` assignment between
-    classes of one layout): from then on it is an ordinary, frozen ``Packet``.
+    most expensive step of receiving a datagram. This class has the very same slots; the
+    decoder makes one with ``object.__new__`` (no ``__init__`` call), assigns the slots
+    directly, then makes it a ``Packet`` (``__class__`` assignment between classes of one
+    layout): from then on it is an ordinary, frozen ``Packet``.
     """
 
     __slots__ = Packet.__slots__  # type: ignore[attr-defined]
 
-    def __init__(self, destination: JausAddress, source: JausAddress, payload: bytes,
-                 sequence: int, flags: int, message_type: int, wire: bytes) -> None:
-        self.destination = destination
-        self.source = source
-        self.payload = payload
-        self.sequence = sequence
-        self.priority = flags & 3
-        self.broadcast = (flags >> 2) & 3
-        self.ack_nak = (flags >> 4) & 3
-        self.data_flags = (flags >> 6) & 3
-        self.message_type = message_type
-        self.hc_flags = self.hc_number = self.hc_length = 0
-        self.wire = wire
-        self.__class__ = Packet  # type: ignore[assignment]
+
+_new = object.__new__
+
+
+def _packet(dst: int, src: int, flags: int, message_type: int, wire: bytes) -> Packet:
+    """The :class:`Packet` of one undamaged general transport message ``wire``."""
+    p: Any = _new(_Decoded)
+    addresses = ADDRESSES
+    p.destination = addresses.get(dst) or _from_id(dst)
+    p.source = addresses.get(src) or _from_id(src)
+    p.payload = wire[12:-2]
+    p.sequence = wire[-2] | wire[-1] << 8
+    p.priority = flags & 3
+    p.broadcast = (flags >> 2) & 3
+    p.ack_nak = (flags >> 4) & 3
+    p.data_flags = (flags >> 6) & 3
+    p.message_type = message_type
+    p.hc_flags = p.hc_number = p.hc_length = 0
+    p.wire = wire
+    p.__class__ = Packet
+    return p  # type: ignore[no-any-return]
 
 
 def encode_packet(packet: Packet) -> bytes:
@@ -235,11 +244,7 @@ def decode_packet(data: bytes | memoryview, offset: int = 0) -> tuple[Packet, in
             offset=offset + 1,
         )
     end = offset + size
-    wire = bytes(data[offset:end])
-    (sequence,) = _SEQ.unpack_from(wire, size - 2)
-    packet: Packet = _Decoded(  # type: ignore[assignment]  # it is a Packet once built
-        _from_id(dst), _from_id(src), wire[12:-2], sequence, flags, message_type, wire)
-    return packet, end
+    return _packet(dst, src, flags, message_type, bytes(data[offset:end])), end
 
 
 def pack_datagram(packets: Iterable[Packet]) -> bytes:
@@ -247,12 +252,20 @@ def pack_datagram(packets: Iterable[Packet]) -> bytes:
     return bytes([JUDP_VERSION]) + b"".join(encode_packet(p) for p in packets)
 
 
-def unpack_datagram(data: bytes | memoryview) -> list[Packet]:
+def unpack_datagram(data: bytes | memoryview, size: int | None = None) -> list[Packet]:
     """Every general transport message in a JUDP datagram.
 
-    Raises :class:`DecodeError` when the datagram is empty, has another version, or any
-    message in it is malformed (a datagram is accepted or refused whole).
+    ``size``: the datagram is the first ``size`` bytes of ``data`` (a receive buffer);
+    default all of it. Raises :class:`DecodeError` when the datagram is empty, has another
+    version, or any message in it is malformed (a datagram is accepted or refused whole).
     """
+    if size is not None:
+        if size >= 1 + MIN_DATA_SIZE and data[0] == JUDP_VERSION:
+            # the usual datagram: one message, no header compression
+            type_hc, length, flags, dst, src = _HEAD.unpack_from(data, 1)
+            if length == size - 1 and length >= MIN_DATA_SIZE and not type_hc >> 6:
+                return [_packet(dst, src, flags, type_hc & 0x3F, bytes(data[1:size]))]
+        data = data[:size]
     if not data:
         raise DecodeError("empty datagram", path="version", offset=0)
     version = data[0]
@@ -264,9 +277,13 @@ def unpack_datagram(data: bytes | memoryview) -> list[Packet]:
             raise UnsupportedError("legacy JAUS01.0 (OPC 2.75) header is not supported",
                                    path="version", offset=0)
         raise DecodeError(f"unknown JUDP version byte 0x{version:02X}", path="version", offset=0)
+    end = len(data)
+    if end >= 1 + MIN_DATA_SIZE:  # the usual datagram: one message, no compression
+        type_hc, length, flags, dst, src = _HEAD.unpack_from(data, 1)
+        if length == end - 1 and length >= MIN_DATA_SIZE and not type_hc >> 6:
+            return [_packet(dst, src, flags, type_hc & 0x3F, bytes(data[1:]))]
     packets = []
     offset = 1
-    end = len(data)
     while offset < end:
         packet, offset = decode_packet(data, offset)
         packets.append(packet)

@@ -372,13 +372,14 @@ class Router:
         # one's decision; anything that changes the address book ends it
         fast_source: JausAddress | None = None
         fast_dest: JausAddress | None = None
-        fast_ids = (0, 0)
+        fast_sid = fast_did = 0
         fast_batch: list[Packet] = []
         for packet in packets:
             source = packet.source
             dest = packet.destination
             if source is fast_source and dest is fast_dest and not packet.ack_nak:
-                key = hash((fast_ids, packet.sequence, packet.data_flags, packet.payload))
+                key = hash((fast_sid, fast_did, packet.sequence, packet.data_flags,
+                            packet.payload))
                 until = seen.get(key)
                 if until is None or until <= now:
                     if len(seen) < max_duplicates:
@@ -391,8 +392,8 @@ class Router:
             if source in local:
                 counters["dropped: own source"] += 1
                 continue
-            ids = (source.id, dest.id)
-            key = hash((ids, packet.sequence, packet.data_flags, packet.payload))
+            sid, did = source.id, dest.id
+            key = hash((sid, did, packet.sequence, packet.data_flags, packet.payload))
             route = learned.get(source)
             until = seen.get(key)
             if until is not None and until > now:
@@ -440,7 +441,7 @@ class Router:
                         batch = out.setdefault((route.link, route.peer), [])
                         batch.append(packet)
                         if not packet.ack_nak:
-                            fast_source, fast_dest, fast_ids = source, dest, ids
+                            fast_source, fast_dest, fast_sid, fast_did = source, dest, sid, did
                             fast_batch = batch
                     else:
                         counters["dropped: relay off"] += 1
@@ -683,12 +684,14 @@ class Router:
             self.counters["dropped: unknown link"] += len(packets)
             return
         mtu = state.mtu
-        if max(len(p.payload) for p in packets) > mtu:
+        sizes = [len(p.payload) for p in packets]
+        if max(sizes) > mtu:
             fits = [p for p in packets if len(p.payload) <= mtu]
             dropped = len(packets) - len(fits)
             state.drops[QueueDrop("exceeds MTU")] += dropped
             self.counters["dropped: exceeds MTU"] += dropped
             packets = fits
+            sizes = [len(p.payload) for p in packets]
         if not packets:
             return
         if not state.busy and not state.queued_bytes:
@@ -697,7 +700,8 @@ class Router:
                 state.sent += len(packets)
                 actions.append(_send_packets(link, peer, tuple(packets)))
                 return
-            if not state.latest_wins and self._within_budget(state, packets, now, rate):
+            if not state.latest_wins and self._within_budget(state, packets, sizes, now,
+                                                             rate):
                 state.sent += len(packets)
                 actions.append(_send_packets(link, peer, tuple(packets)))
                 return
@@ -718,21 +722,20 @@ class Router:
         self._drain(state, now, actions)
 
     @staticmethod
-    def _within_budget(state: _LinkState, packets: Sequence[Packet], now: float,
-                       rate: float) -> bool:
+    def _within_budget(state: _LinkState, packets: Sequence[Packet], sizes: list[int],
+                       now: float, rate: float) -> bool:
         """Charge ``packets`` to an idle paced link's budget if the queue would let them
         all leave now, in this order (one priority, the budget not spent before the
         last, no more than the queue holds): then they skip the queue, which would change
         nothing but the cost."""
         state.refill(now, rate)
         priority = packets[0].priority & 3
-        overhead = 14 + state.overhead
-        total = 0
         for p in packets:
             if (p.priority & 3) != priority:
                 return False
-            total += len(p.payload) + overhead
-        last = len(packets[-1].payload) + overhead
+        overhead = 14 + state.overhead
+        total = sum(sizes) + overhead * len(sizes)
+        last = sizes[-1] + overhead
         if total > state.queue_limit or state.tokens - (total - last) < -1e-9:
             return False
         state.tokens -= total

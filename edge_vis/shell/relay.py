@@ -12,8 +12,13 @@ One event loop drives everything::
                     Publish     ─► DdsBridge.publish
 
 Every input is handled to completion (router, engine, actions) before the next one, so
-the core never sees concurrency. Bad bytes are counted and logged (rate-limited), never
-raised; a failing link is reported and the relay keeps running.
+the core never sees concurrency. A link with its own I/O thread (``thread=1``) calls
+``deliver`` from that thread while holding the loop's lock
+(:mod:`edge_vis.shell.sharedloop`), so that input too is handled to completion (router,
+engine, sends, DDS writes) with nothing else running; only what needs the loop itself (a
+timer wanted earlier than the one armed, the end of a shutdown) is handed to it. Bad bytes
+are counted and logged (rate-limited), never raised; a failing link is reported and the
+relay keeps running.
 """
 
 from __future__ import annotations
@@ -50,6 +55,7 @@ from edge_vis.routing.link import Link, Peer, create_link
 from edge_vis.routing.router import Deliver, DeliveryFailed, Router, RouterConfig, SendPackets
 from edge_vis.routing.traffic import priority_for
 from edge_vis.shell.memory import release_memory
+from edge_vis.shell.sharedloop import on_loop_thread
 
 if TYPE_CHECKING:  # the mirror is imported only by a relay that is given one
     from edge_vis.shell.mirror import Mirror
@@ -100,6 +106,8 @@ class Runtime:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._timer: asyncio.TimerHandle | None = None
         self._timer_at: float | None = None
+        #: a link thread asked the loop to arm its timer earlier (not yet done)
+        self._rearm_posted = False
         self._stopped: asyncio.Event | None = None
         self._shutdown_done: asyncio.Event | None = None
         self._status_task: asyncio.Task[None] | None = None
@@ -442,7 +450,11 @@ class Runtime:
                     if self.publisher is not None and hasattr(self.publisher, "withdraw"):
                         self.publisher.withdraw(action.vehicle_id)
                 elif isinstance(action, ShutdownComplete) and self._shutdown_done is not None:
-                    self._shutdown_done.set()
+                    if on_loop_thread(self._loop):
+                        self._shutdown_done.set()
+                    else:
+                        assert self._loop is not None
+                        self._loop.call_soon_threadsafe(self._shutdown_done.set)
         self._rearm(now)
 
     def _send(self, action: SendMessage, now: float) -> None:
@@ -534,10 +546,20 @@ class Runtime:
         when = max(min(deadlines), now)
         if self._timer_at is not None and self._timer_at <= when:
             return
+        if not on_loop_thread(self._loop):  # a link thread: the loop arms its own timer
+            if not self._rearm_posted:
+                self._rearm_posted = True
+                self._loop.call_soon_threadsafe(self._rearm_on_loop)
+            return
         if self._timer is not None:
             self._timer.cancel()
         self._timer_at = when
         self._timer = self._loop.call_at(when, self._on_timer)
+
+    def _rearm_on_loop(self) -> None:
+        assert self._loop is not None
+        self._rearm_posted = False
+        self._rearm(self._loop.time())
 
     # -- health and mirror ----------------------------------------------------------------------
     def _priority(self, action: SendMessage) -> int:

@@ -23,6 +23,7 @@ from edge_vis.jaus.transport import Packet, pack_datagram, unpack_datagram
 from edge_vis.routing.link import Link, LinkOptions, LinkUrl, Peer
 from edge_vis.routing.router import Action, Deliver, DeliveryFailed, Router, SendPackets
 from edge_vis.shell.memory import release_memory
+from edge_vis.shell.sharedloop import on_loop_thread
 
 _BUSES: dict[str, dict[str, MemoryLink]] = {}
 _anonymous = itertools.count(1)
@@ -154,19 +155,41 @@ class RouterNode:
         assert self._loop is not None
         return self._loop.time()
 
-    def send(self, packet: Packet, *, ack: bool = False) -> None:
-        """Send from a local component through the router."""
-        self._execute(self.router.send(packet, self.now(), ack=ack))
+    def send(self, packet: Packet, *, ack: bool = False, urgent: bool = False) -> None:
+        """Send from a local component through the router (``urgent``: the urgent path)."""
+        self._execute(self.router.send(packet, self.now(), ack=ack, urgent=urgent))
 
     def _received(self, link: str, peer: Peer, packets: list[Packet]) -> None:
-        self._execute(self.router.receive(link, peer, packets, self.now()))
+        actions = self.router.receive(link, peer, packets, self.now())
+        if on_loop_thread(self._loop):
+            self._execute(actions)
+            return
+        # a link thread (its lock held): send now, leave the rest to the loop
+        rest: list[Action] = []
+        for action in actions:
+            if isinstance(action, SendPackets):
+                self._send(action)
+            else:
+                rest.append(action)
+        deadline = self.router.next_deadline()
+        if rest or (deadline is not None
+                    and (self._timer_at is None or deadline < self._timer_at)):
+            assert self._loop is not None
+            self._loop.call_soon_threadsafe(self._execute, rest)
+
+    def _send(self, action: SendPackets) -> None:
+        link = self.links.get(action.link)
+        if link is None:
+            return
+        if action.urgent:
+            link.send_urgent(action.packets, action.peer)
+        else:
+            link.send(action.packets, action.peer)
 
     def _execute(self, actions: list[Action]) -> None:
         for action in actions:
             if isinstance(action, SendPackets):
-                link = self.links.get(action.link)
-                if link is not None:
-                    link.send(action.packets, action.peer)
+                self._send(action)
             elif isinstance(action, Deliver):
                 self.delivered.put_nowait(action)
             else:

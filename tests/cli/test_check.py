@@ -44,7 +44,7 @@ def problem_lines(out: str) -> list[str]:
      "unknown link scheme 'udpp' (installed: loop, serial, udp)"),
     ("udp://127.0.0.1:3794?bogus=1", "links.radio.url.bogus",
      "udp://127.0.0.1:3794?bogus=1: unknown option (known: bandwidth, broadcast, cycle, "
-     "interface, loop, mtu, multicast, name, pack, peers, ttl)"),
+     "interface, loop, mtu, multicast, name, pack, peers, thread, ttl)"),
     ("udp://127.0.0.1:3794?cycle=0.5", "links.radio.url.cycle",
      "udp://127.0.0.1:3794?cycle=0.5: must be in 0..0.1, got 0.5 s"),
     ("udp://127.0.0.1:3794?ttl=300", "links.radio.url.ttl",
