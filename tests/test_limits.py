@@ -28,9 +28,9 @@ from edge_vis.routing.router import Deliver, Router, RouterConfig
 
 RELAY = JausAddress(200, 1, 1)
 FLOOD = 10_000
-#: first fragments of 1 kB into a 256 kB reassembler: eight times what it may hold, so the
-#: byte cap is hit some 1,750 times (each eviction scans every held run: 10,000 took 15 s)
-REASSEMBLY_FLOOD = 2_000
+#: first fragments of 1 kB into a 256 kB reassembler: 39 times what it may hold, so the
+#: byte cap is hit some 9,700 times
+REASSEMBLY_FLOOD = FLOOD
 
 
 def _payload(code: int = 0x4202, body: bytes = b"\x00" * 8) -> bytes:

@@ -19,6 +19,12 @@ Memory is bounded three ways, all counted in :class:`ReassemblyStats` and never 
 * ``max_bytes`` held in total; past it the oldest runs (of any source) are dropped;
 * ``timeout`` seconds without a new fragment for a run; :meth:`Reassembler.expire`
   drops it. Time is the ``now`` the caller passes: this module never reads a clock.
+
+Ties in age go to the source heard first, then to the run whose first fragment number was
+held first. Runs are records indexed by both ends, and lazily pruned heaps give the oldest
+run (per source and overall) and the next timeout, so a flood costs O(log n) per fragment
+and per eviction however many runs it leaves held (``bench/reassembly.py``). A duplicate
+rebuilds the runs beside it, at a cost of their length.
 """
 
 from __future__ import annotations
@@ -136,13 +142,7 @@ def _joins(before: Packet, after: Packet) -> bool:
 
 
 class Reassembler:
-    """Reassemble large data sets from any number of sources, within fixed bounds.
-
-    Runs are kept as explicit records indexed by both ends, with lazily pruned heaps for
-    the oldest run (per source and overall) and the next timeout, so each fragment and
-    each eviction costs O(log n) however many runs are held. A duplicate rebuilds the
-    runs around it, costing the length of those runs.
-    """
+    """Reassemble large data sets from any number of sources, within fixed bounds."""
 
     def __init__(
         self,
