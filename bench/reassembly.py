@@ -11,6 +11,10 @@ Prints µs per fragment (best of ``--repeat`` runs); asserts nothing about timin
 * ``8-fragment messages, shuffled``: whole messages from 20 sources, fragments of each
   message in random order, every message completed.
 
+``--duplicates N`` adds a known weak spot instead: N duplicates sent into one run of
+``--count`` MIDDLE fragments (each duplicate rebuilds the runs around it: cost grows with
+their length).
+
 ``--impl`` times another copy of ``edge_vis/jaus/fragments.py`` (e.g. an older revision
 taken with ``git show REV:edge_vis/jaus/fragments.py > /tmp/fragments_before.py``).
 """
@@ -90,13 +94,34 @@ def run(module: ModuleType, packets: list[Packet], repeat: int) -> tuple[float, 
     return best / len(packets) * 1e6, stats
 
 
+def long_run_duplicates(module: ModuleType, length: int, duplicates: int) -> None:
+    reassembler = module.Reassembler()
+    source = _source(1)
+    t0 = time.perf_counter()
+    for i in range(length):
+        reassembler.feed(Packet(DST, source, b"\x55" * 100, data_flags=DataFlags.MIDDLE,
+                                sequence=i), i * 1e-5)
+    t1 = time.perf_counter()
+    for k in range(duplicates):
+        reassembler.feed(Packet(DST, source, b"\x55" * 100, data_flags=DataFlags.MIDDLE,
+                                sequence=k * 7919 % length), 1.0 + k * 1e-5)
+    t2 = time.perf_counter()
+    print(f"one run of {length:,} MIDDLE fragments: {(t1 - t0) / length * 1e6:,.1f} µs per "
+          f"fragment; then {duplicates:,} duplicates: {(t2 - t1) / duplicates * 1e6:,.0f} µs "
+          f"each (load average {os.getloadavg()[0]:.2f})")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--impl", help="path of another fragments.py to time")
     parser.add_argument("--count", type=int, default=10_000)
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--duplicates", type=int, default=0)
     args = parser.parse_args()
     module = _load(args.impl)
+    if args.duplicates:
+        long_run_duplicates(module, args.count, args.duplicates)
+        return
     cases: list[tuple[str, Callable[[int], list[Packet]]]] = [
         ("first-fragment flood, many sources", many_sources),
         ("first-fragment flood, one source", one_source),
