@@ -173,6 +173,21 @@ FWD_RELAY = JausAddress(200, 1, 1)
 BURST_WINDOW = 1024
 
 
+def drain_to_pty(sock: socket.socket, buffer: memoryview, fd: int) -> int:
+    """The floors' work: read every datagram waiting, one pty write for all behind frame
+    starts (as the serial link); return how many were read."""
+    frames: list[bytes] = []
+    while True:
+        try:
+            size, _ = sock.recvfrom_into(buffer)
+        except BlockingIOError:
+            break
+        frames.append(b"\x10\x01\x02" + buffer[:size].tobytes())
+    if frames:
+        os.write(fd, b"".join(frames))
+    return len(frames)
+
+
 def forwarder_main(in_port: int, out: str, cycle: float = 0.0, thread: bool = False) -> None:
     """The process under test: a router between a UDP link and ``out``; ``cycle`` is
     the UDP link's option of that name (and the bare loop's equivalent), ``thread`` its
@@ -237,17 +252,7 @@ def forwarder_main(in_port: int, out: str, cycle: float = 0.0, thread: bool = Fa
         buffer = memoryview(bytearray(65535))
 
         def drain() -> int:
-            """Read every datagram waiting; one write for all (as the serial link)."""
-            out: list[bytes] = []
-            while True:
-                try:
-                    size, _ = sock.recvfrom_into(buffer)
-                except BlockingIOError:
-                    break
-                out.append(b"\x10\x01\x02" + buffer[:size].tobytes())
-            if out:
-                os.write(fd, b"".join(out))
-            return len(out)
+            return drain_to_pty(sock, buffer, fd)
 
         def readable() -> None:  # with a cycle: as UdpLink, read on a timer while busy
             if drain() and cycle:
@@ -285,17 +290,7 @@ def forwarder_main(in_port: int, out: str, cycle: float = 0.0, thread: bool = Fa
             while not stop:
                 if not poller.poll(200):
                     continue
-                while True:
-                    frames: list[bytes] = []
-                    while True:
-                        try:
-                            size, _ = sock.recvfrom_into(buffer)
-                        except BlockingIOError:
-                            break
-                        frames.append(b"\x10\x01\x02" + buffer[:size].tobytes())
-                    if not frames:
-                        break
-                    os.write(fd, b"".join(frames))
+                while drain_to_pty(sock, buffer, fd):
                     if cycle:
                         time.sleep(cycle)
 

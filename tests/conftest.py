@@ -28,6 +28,29 @@ _DOMAIN_IDS = itertools.count(0)
 _DOMAIN_BASE = 20 + os.getpid() % 150
 
 
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption(
+        "--long", action="store_true", default=False,
+        help="the long runs too: tests marked 'long', and the full size of tests that have "
+             "a short one (the fuzz runs: 4,000 inputs, not 500); README 'Long runs'",
+    )
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    if config.getoption("--long"):
+        return
+    later = pytest.mark.skip(reason="long run: add --long to run it (README 'Long runs')")
+    for item in items:
+        if "long" in item.keywords:
+            item.add_marker(later)
+
+
+@pytest.fixture(scope="session")
+def long_run(request: pytest.FixtureRequest) -> bool:
+    """True under ``--long``: tests with a short and a full size pick the full one."""
+    return bool(request.config.getoption("--long"))
+
+
 @pytest.fixture(scope="session", autouse=True)
 def loopback_cyclone() -> Iterator[str]:
     """Point Cyclone DDS at the loopback interface for the whole session."""

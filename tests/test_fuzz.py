@@ -1,4 +1,5 @@
-"""Fuzz targets: stored crash inputs replayed, and a short coverage-guided run of each."""
+"""Fuzz targets: stored crash inputs replayed, and a short coverage-guided run of each
+(500 inputs; 4,000 with ``pytest --long``)."""
 
 from __future__ import annotations
 
@@ -26,15 +27,20 @@ def test_stored_inputs_stay_fixed(target: str, path: Path) -> None:
     TARGETS[target](path.read_bytes())
 
 
+#: inputs per target: a short run by default, the full one with ``pytest --long``
+SHORT_RUNS, LONG_RUNS = 500, 4000
+
+
 @pytest.mark.parametrize("target", sorted(TARGETS))
-def test_short_fuzz_run_finds_nothing(target: str, tmp_path: Path) -> None:
+def test_short_fuzz_run_finds_nothing(target: str, tmp_path: Path, long_run: bool) -> None:
     pytest.importorskip("atheris")
+    runs = LONG_RUNS if long_run else SHORT_RUNS
     result = subprocess.run(
-        [sys.executable, str(ROOT / "fuzz" / "run.py"), target, "-runs=4000", "-seed=1",
+        [sys.executable, str(ROOT / "fuzz" / "run.py"), target, f"-runs={runs}", "-seed=1",
          f"-artifact_prefix={tmp_path}/"],
         capture_output=True, text=True, timeout=120, cwd=tmp_path,
         env={**os.environ, "PYTHONPATH": str(ROOT)},
     )
     crashes = list(tmp_path.glob("crash-*"))
     assert result.returncode == 0 and not crashes, result.stderr[-3000:]
-    assert "Done 4000 runs" in result.stderr
+    assert f"Done {runs} runs" in result.stderr

@@ -277,3 +277,15 @@ def test_installed_edge_vis_plugins_all_load() -> None:
         for entry in plugins.entries(group):
             if entry.distribution == "edge-vis":
                 plugins.load(group, entry.name)
+
+
+def test_distribution_name_and_version_come_from_the_metadata_headers(site: Path) -> None:
+    """Only the header block is read: a long description after it (pip puts the whole
+    README there) with header-like lines in it changes nothing."""
+    make_distribution(site, "fakeplug-doc", {plugins.LINKS: {"docudp": "fakeplug_doc:X"}},
+                      {"fakeplug_doc": "X = 1\n"})
+    meta = site / "fakeplug_doc-1.0.dist-info" / "METADATA"
+    meta.write_text(meta.read_text() + "Description-Content-Type: text/markdown\n\n"
+                    "# fakeplug-doc\n\nName: not-this\nVersion: 9.9\n" + "text\n" * 5000)
+    [entry] = [e for e in plugins.entries(plugins.LINKS) if e.name == "docudp"]
+    assert (entry.distribution, entry.version) == ("fakeplug-doc", "1.0")

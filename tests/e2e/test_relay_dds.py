@@ -43,6 +43,8 @@ async def with_relay(domain: int, partition: str, *, confirm_events: bool,
         links=(LinkProfile("lan", f"udp://{RELAY_IP}:3794?peers={PEER_IP}:3794"),),
         dds=dataclasses.replace(base.dds, domain=domain, partitions=(partition,)),
         discovery=dataclasses.replace(base.discovery, period=0.5, liveness_period=0.5),
+        # unanswered CreateEvents give up after 2 x 1 s (not 2 x 3 s) before polling
+        events=dataclasses.replace(base.events, response_timeout=1.0),
         commands=dataclasses.replace(base.commands, rate=5.0, lifespan=2.0,
                                      deadman_timeout=30.0),
         report_rates={"ReportGlobalPose": 10.0},
