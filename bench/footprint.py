@@ -241,15 +241,19 @@ def forwarder_main(in_port: int, out: str, cycle: float = 0.0, thread: bool = Fa
         await done
         await node.stop()
 
-    async def bare(loop: asyncio.AbstractEventLoop, done: asyncio.Future[None]) -> None:
-        """The floor: the same system calls on the same event loop, none of the logic
-        (read every datagram waiting, write it to the pty behind a frame start)."""
+    def floor_ends() -> tuple[socket.socket, int, memoryview]:
+        """The floors' receiving socket, pty and read buffer (non-blocking)."""
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         sock.bind((FWD_IP, in_port))
         sock.setblocking(False)
         fd = os.open(out.split("//", 1)[1].split("?")[0], os.O_RDWR | os.O_NOCTTY)
         os.set_blocking(fd, False)
-        buffer = memoryview(bytearray(65535))
+        return sock, fd, memoryview(bytearray(65535))
+
+    async def bare(loop: asyncio.AbstractEventLoop, done: asyncio.Future[None]) -> None:
+        """The floor: the same system calls on the same event loop, none of the logic
+        (read every datagram waiting, write it to the pty behind a frame start)."""
+        sock, fd, buffer = floor_ends()
 
         def drain() -> int:
             return drain_to_pty(sock, buffer, fd)
@@ -276,12 +280,7 @@ def forwarder_main(in_port: int, out: str, cycle: float = 0.0, thread: bool = Fa
         in ``poll`` for the first datagram and sleeps the cycle between reads."""
         import threading
 
-        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        sock.bind((FWD_IP, in_port))
-        sock.setblocking(False)
-        fd = os.open(out.split("//", 1)[1].split("?")[0], os.O_RDWR | os.O_NOCTTY)
-        os.set_blocking(fd, False)
-        buffer = memoryview(bytearray(65535))
+        sock, fd, buffer = floor_ends()
         stop = False
 
         def serve() -> None:
