@@ -26,7 +26,6 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from edge_vis.errors import LinkError
 from links.udt.image_service import manifest_for_file
 from links.udt.lane_run import TICK, SharedRate
 from links.udt.protocol import (
@@ -45,6 +44,7 @@ from links.udt.transfer import (
     BulkSender,
     ConnectionLost,
     TransferResult,
+    UdtService,
     _close,
     _send_all,
     listen,
@@ -88,7 +88,7 @@ class _PacedFetch:
             sender.cap(share)
 
 
-class ImageServer:
+class ImageServer(UdtService):
     """Serves ``directory``'s files as vehicle ``vehicle_id``'s images (see module doc).
 
     ``max_rate_bps`` caps each connection's send rate (``UDT_MAXBW``), like ``send-image``.
@@ -102,21 +102,15 @@ class ImageServer:
         self.max_rate_bps = max_rate_bps
         self.idle_timeout = idle_timeout
         self.max_connections = max_connections
-        self._bind = listen
-        self._listener: Any = None
-        self._stop = threading.Event()
-        self._threads: list[threading.Thread] = []
+        super().__init__(listen)
         self._lock = threading.Lock()
         self._manifests: dict[str, tuple[tuple[int, int], Manifest]] = {}
         self._fetches: dict[FetchKey, _PacedFetch] = {}
         self._open = 0
         self.counters = {"connections": 0, "served": 0, "not_found": 0, "interrupted": 0}
 
-    @property
-    def address(self) -> tuple[str, int]:
-        if self._listener is None:
-            raise LinkError("image server not started")
-        return tuple(self._listener.address)  # type: ignore[return-value]
+    _kind = "image server"
+    _conn_thread = "udt-serve"
 
     def start(self) -> ImageServer:
         self._listener = listen(self._bind, linger=0, max_rate_bps=self.max_rate_bps or 0)
@@ -127,21 +121,6 @@ class ImageServer:
             self._threads.append(t)
         log.info("serving images of %s on udt://%s:%d", self.directory, *self.address)
         return self
-
-    def stop(self) -> None:
-        """Stop accepting and serving (idempotent)."""
-        self._stop.set()
-        if self._listener is not None:
-            self._listener.close()
-        for t in list(self._threads):
-            t.join(timeout=5)
-        self._threads.clear()
-
-    def __enter__(self) -> ImageServer:
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        self.stop()
 
     def manifest(self, name: str) -> Manifest:
         """The manifest of file ``name``; ``ManifestError(NOT_FOUND/BAD_NAME)`` if not served."""
@@ -162,28 +141,11 @@ class ImageServer:
                 del self._manifests[next(iter(self._manifests))]
         return m
 
-    def _accept_loop(self) -> None:
-        udt = udt4py()
-        while not self._stop.is_set():
-            try:
-                sock, peer = self._listener.accept()
-            except udt.UDTException as exc:
-                if not self._stop.is_set():
-                    log.error("accept failed: %s", exc)
-                    self._stop.wait(0.1)
-                continue
-            self.counters["connections"] += 1
-            with self._lock:
-                busy = self._open >= self.max_connections
-                self._open += 0 if busy else 1
-            if busy:
-                _close(sock)
-                continue
-            t = threading.Thread(target=self._serve, args=(sock, f"{peer[0]}:{peer[1]}"),
-                                 name=f"udt-serve-{peer[1]}", daemon=True)
-            self._threads = [x for x in self._threads if x.is_alive()]
-            self._threads.append(t)
-            t.start()
+    def _admit(self, sock: Any) -> bool:
+        with self._lock:
+            busy = self._open >= self.max_connections
+            self._open += 0 if busy else 1
+        return not busy
 
     def _pace_loop(self) -> None:
         while not self._stop.wait(TICK):

@@ -21,7 +21,7 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Self
 
 from edge_vis.errors import LinkError
 from links.udt.lane_plan import segments_for
@@ -648,7 +648,76 @@ VerifiedFn = Callable[[Manifest, Path], None]
 StatusFn = Callable[[dict[str, Any]], None]
 
 
-class BulkReceiver:
+class UdtService:
+    """What the two UDT servers (the bulk receiver and the image server) share: a
+    listener, an accept thread that hands each admitted connection to a thread of its own,
+    and an idempotent stop that joins them all. A subclass opens the listener in
+    ``start`` and implements ``_serve`` (and ``_admit`` to refuse when busy)."""
+
+    #: what the service is called in errors, and its connection threads' name prefix
+    _kind = "UDT service"
+    _conn_thread = "udt-conn"
+
+    def __init__(self, bind: tuple[str, int]) -> None:
+        self._bind = bind
+        self._listener: Any = None
+        self._stop = threading.Event()
+        self._threads: list[threading.Thread] = []
+        self.counters: dict[str, int] = {"connections": 0}
+
+    @property
+    def address(self) -> tuple[str, int]:
+        if self._listener is None:
+            raise LinkError(f"{self._kind} not started")
+        return tuple(self._listener.address)  # type: ignore[return-value]
+
+    def start(self) -> Self:
+        raise NotImplementedError
+
+    def __enter__(self) -> Self:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def stop(self) -> None:
+        """Stop accepting, end every connection's thread (idempotent)."""
+        self._stop.set()
+        if self._listener is not None:
+            self._listener.close()
+        for t in list(self._threads):
+            t.join(timeout=5)
+        self._threads.clear()
+
+    def _admit(self, sock: Any) -> bool:
+        """Whether to serve a new connection; a refused one is closed by the caller."""
+        return True
+
+    def _serve(self, sock: Any, peer: str) -> None:
+        raise NotImplementedError
+
+    def _accept_loop(self) -> None:
+        udt = udt4py()
+        while not self._stop.is_set():
+            try:
+                sock, peer = self._listener.accept()
+            except udt.UDTException as exc:
+                if not self._stop.is_set():
+                    log.error("accept failed: %s", exc)
+                    self._stop.wait(0.1)
+                continue
+            self.counters["connections"] += 1
+            if not self._admit(sock):
+                _close(sock)
+                continue
+            t = threading.Thread(target=self._serve, args=(sock, f"{peer[0]}:{peer[1]}"),
+                                 name=f"{self._conn_thread}-{peer[1]}", daemon=True)
+            self._threads = [x for x in self._threads if x.is_alive()]
+            self._threads.append(t)
+            t.start()
+
+
+class BulkReceiver(UdtService):
     """Accepts UDT connections and stores transfers in a :class:`Spool`.
 
     ``on_verified(manifest, path)`` is called once per file whose SHA-256 matched, after the
@@ -670,27 +739,20 @@ class BulkReceiver:
         self.spool = spool
         #: vehicle id -> pre-shared key; when set, only those vehicles may deliver
         self.keys = keys
-        self._bind = bind
+        super().__init__(bind)
         self.on_verified = on_verified
         self.on_status = on_status
         self.idle_timeout = idle_timeout
         self.max_connections = max_connections
-        self._listener: Any = None
-        self._threads: list[threading.Thread] = []
         self._conns: dict[int, Any] = {}
         self._owners: dict[tuple[str, int | None], Any] = {}  # claim -> socket holding it
         self._lock = threading.Lock()
-        self._stop = threading.Event()
         self._local = threading.local()
         self._cut: set[int] = set()  # ids of sockets their serving thread must close
         self.counters = {"connections": 0, "protocol_errors": 0, "refused": 0, "verified": 0,
                          "unauthenticated": 0}
 
-    @property
-    def address(self) -> tuple[str, int]:
-        if self._listener is None:
-            raise LinkError("receiver not started")
-        return tuple(self._listener.address)  # type: ignore[return-value]
+    _kind = "receiver"
 
     def start(self) -> BulkReceiver:
         # linger, inherited by connections: time to deliver a last ERROR
@@ -700,12 +762,6 @@ class BulkReceiver:
         self._threads.append(t)
         log.info("receiving images on udt://%s:%d", *self.address)
         return self
-
-    def __enter__(self) -> BulkReceiver:
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        self.stop()
 
     def drop_connections(self) -> int:
         """Cut every open connection (partial data is kept); return how many.
@@ -718,42 +774,15 @@ class BulkReceiver:
             self._cut.update(conns)
         return len(conns)
 
-    def stop(self) -> None:
-        """Stop accepting, close connections, keep everything received (idempotent)."""
-        self._stop.set()
-        if self._listener is not None:
-            self._listener.close()
-        for t in list(self._threads):
-            t.join(timeout=5)
-        self._threads.clear()
-
-    def _accept_loop(self) -> None:
-        udt = udt4py()
-        while not self._stop.is_set():
-            try:
-                sock, peer = self._listener.accept()
-            except udt.UDTException as exc:
-                if not self._stop.is_set():
-                    log.error("accept failed: %s", exc)
-                    time.sleep(0.1)
-                continue
-            self.counters["connections"] += 1
-            with self._lock:
-                busy = len(self._conns) >= self.max_connections
-            if busy:
-                conn = ReceiverConnection()
-                conn.close_with_error(Reason.BUSY, "too many connections; retry later")
-                with contextlib.suppress(ConnectionLost):
-                    _send_all(sock, conn.data_to_send())
-                _close(sock)
-                continue
-            t = threading.Thread(
-                target=self._serve, args=(sock, f"{peer[0]}:{peer[1]}"), daemon=True,
-                name=f"udt-conn-{peer[1]}",
-            )
-            self._threads = [x for x in self._threads if x.is_alive()]
-            self._threads.append(t)
-            t.start()
+    def _admit(self, sock: Any) -> bool:
+        with self._lock:
+            busy = len(self._conns) >= self.max_connections
+        if busy:
+            conn = ReceiverConnection()
+            conn.close_with_error(Reason.BUSY, "too many connections; retry later")
+            with contextlib.suppress(ConnectionLost):
+                _send_all(sock, conn.data_to_send())
+        return not busy
 
     def _status(self, manifest: Manifest, state: str, offset: int, detail: str = "") -> None:
         if self.on_status is None:
