@@ -115,7 +115,7 @@ class LaneRun:
         stored: set[int] = set()
         failures: list[Any] = []
         idle: list[Any] = []
-        wanted = MAX_LANES if adaptive else self.lanes
+        import os; wanted = int(os.environ.get("XLANES", MAX_LANES)) if adaptive else self.lanes
         senders: dict[int, Any] = {}
         shares: dict[int, float] = {}  # lane -> its share of the rate (bit/s)
         taken_over: set[int] = set()
@@ -207,6 +207,9 @@ class LaneRun:
                     for stop in running.values():
                         stop.set()
                 if shared is not None:
+                    trips = [t for t in (senders[lane].round_trip() for lane in busy) if t]
+                    if trips:  # the lanes share the radio's queue: the least says it
+                        shared.control.smoothed(min(trips))
                     share = shared.share(now, acknowledged, len(busy))
                     for lane in running:
                         if shares.get(lane) != share:

@@ -37,7 +37,7 @@ class RateProbe:
 
     step: float = 0.25
     span: float = 1.0
-    initial_bps: float = 4e6
+    initial_bps: float = float(__import__("os").environ.get("XINIT", 4e6))
     startup: float = 1.3
     growth: float = 1.1
     up: float = 1.04
@@ -47,6 +47,10 @@ class RateProbe:
     ahead: float = 2.0
     lead: float = 1.05
     near: float = 0.8
+    target: float = 0.015
+    window: float = 2.0
+    settle: float = 0.5
+    cut: float = 0.85
     floor_bps: float = 256e3
     budget_bps: float | None = None
     rate_bps: float = 0.0
@@ -64,6 +68,10 @@ class RateProbe:
     _full_steps: int = 0
     _best: float = 0.0
     _flat: int = 0
+    _smoothed: float | None = None
+    _dense: bool = False
+    _paced_at: float = 0.0
+    _peaks: deque[tuple[float, float]] = field(default_factory=deque)
 
     def __post_init__(self) -> None:
         if not 0 < self.step <= self.span or self.initial_bps <= 0 or not self.room < self.full:
@@ -79,6 +87,15 @@ class RateProbe:
         self._least = seconds if self._least is None else min(self._least, seconds)
         self._answers += 1
 
+    def smoothed(self, seconds: float) -> None:
+        """The lanes' connections' own smoothed round trip, now (the least of theirs):
+        no loss delays it, so the latest says the queue as it stands."""
+        if seconds <= 0:
+            return
+        self.base = seconds if self.base is None else min(self.base, seconds)
+        self._smoothed = seconds
+        self._dense = True
+
     def delivered_bps(self, over: float | None = None) -> float:
         """Acknowledged bit/s over the last ``over`` seconds (``span`` by default; 0
         before half of that is seen)."""
@@ -90,6 +107,17 @@ class RateProbe:
             return 0.0
         return max(0, last - before) * 8 / (now - since)
 
+    def peak_bps(self, now: float) -> float:
+        """The most the receiver acknowledged in two steps within the last ``window``
+        seconds: once the radio was full, what it carries (a lane held back by a loss
+        does not lower it)."""
+        recent = self.delivered_bps(2 * self.step)
+        if recent:
+            self._peaks.append((now, recent))
+        while self._peaks and now - self._peaks[0][0] > self.window:
+            self._peaks.popleft()
+        return max((rate for _, rate in self._peaks), default=0.0)
+
     def sample(self, now: float, acknowledged: int) -> float:
         """Feed the bytes acknowledged so far at ``now``; return the rate to pace at."""
         self._marks.append((now, acknowledged))
@@ -99,41 +127,57 @@ class RateProbe:
             self._next = now + self.step
         if now < self._next:
             return self.rate_bps
-        self._next = now + self.step
+        # The start grows in half steps when the lanes' own round trips say the queue
+        # at once: the first queue is seen before it overflows.
+        fine = self.phase == "startup" and self._dense
+        self._next = now + (self.step / 2 if fine else self.step)
         least, answers, self._least, self._answers = self._least, self._answers, None, 0
-        if least is None or self.base is None:
-            return self.rate_bps  # no answer this step: nothing learnt
-        self.queued = least - self.base
+        smoothed, self._smoothed = self._smoothed, None
+        if self.base is None or (least is None and smoothed is None):
+            return self.rate_bps  # no round trip this step: nothing learnt
+        # A smoothed round trip is as good as many answers: no lost packet delays it.
+        self.queued = (least if smoothed is None else smoothed) - self.base
+        sure = smoothed is not None or answers >= 2
         rate, delivered = self.rate_bps, self.delivered_bps()
+        peak = self.peak_bps(now)
         at_budget = bool(self.budget_bps) and delivered >= self.near * (self.budget_bps or 0)
-        standing = self.queued >= self.full and answers >= 2 and not at_budget
+        standing = self.queued >= self.full and sure and not at_budget
         self._full_steps = self._full_steps + 1 if standing else 0
         if self.phase == "startup" and delivered and not at_budget:
             if delivered > self._best * self.growth:
                 self._best, self._flat = delivered, 0
             else:
                 self._flat += 1
-        if self.phase == "startup" and self._flat >= 3:
+        if self.phase == "startup" and self._flat >= (6 if fine else 3):
             # Delivery stopped growing with the rate: the radio is full (a queue too
             # short to show in the round trips).
-            self.phase, self._full_steps = "paced", 0
+            self.phase, self._full_steps, self._paced_at = "paced", 0, now
             rate = self.drain * min(rate, self._best)
-        elif self._full_steps >= (1 if self.phase == "startup" else 2):
-            # A standing queue: the radio is full; what it delivered is what it carries.
-            if self.phase == "startup":  # what the radio carried since it filled up
-                recent = self.delivered_bps(2 * self.step)
-                self.phase, rate = "paced", min(rate, recent or delivered or rate)
-            # The queue takes a while to drain: the next step down needs two more
-            # queued steps in a row than this one did.
-            self._full_steps = -2
-            rate *= self.drain
+        elif self.phase == "startup" and (self._full_steps or (
+                smoothed is not None and self.queued > self.room and not at_budget)):
+            # A queue: the radio is full; what it delivered lately is what it carries.
+            self.phase, self._full_steps, self._paced_at = "paced", 0, now
+            rate = min(rate, peak or delivered or rate) * self._toward_target()
+        elif self.phase == "paced" and sure and self.queued > self.room and not at_budget:
+            # The radio is full, so it delivers what it carries: pace at that, a little
+            # less while the queue stands above the target, a little more below it.
+            # (over what came since the start ended, at least two steps)
+            since = self.delivered_bps(min(self.span, max(2 * self.step, now - self._paced_at)))
+            rate = (since or delivered or rate) * self._toward_target()
         elif self.queued <= self.room:
-            rate *= self.startup if self.phase == "startup" else self.up
+            rate *= (self.startup ** 0.5 if fine else self.startup) \
+                if self.phase == "startup" else self.up
             if self.phase == "startup" and delivered:
                 rate = min(rate, max(self.initial_bps, self.ahead * delivered))
-            elif delivered:
-                rate = min(rate, max(self.floor_bps, self.lead * delivered))
+            elif delivered:  # within reach of what the lanes deliver now, and back at
+                # once to what the radio carried lately
+                rate = max(min(rate, self.lead * delivered), peak, self.floor_bps)
         return self._set(self._clamp(rate), now)
+
+    def _toward_target(self) -> float:
+        """The factor on what the radio delivers that brings the queue to ``target``
+        seconds within about ``settle`` seconds."""
+        return min(self.lead, max(self.cut, 1 + (self.target - self.queued) / self.settle))
 
     def _clamp(self, rate: float) -> float:
         if self.budget_bps:  # the operator's word on what the radio carries for bulk data

@@ -25,6 +25,7 @@ from typing import Any, Self
 
 from edge_vis.errors import LinkError
 from links.udt.lane_plan import segments_for
+from links.udt import udt_stats
 from links.udt.lane_run import LaneRun
 from links.udt.protocol import (
     DATA_CHUNK,
@@ -284,6 +285,13 @@ class BulkSender:
         pending = _pending(sock)
         return conn.manifest.segment, max(0, conn.offset - pending), \
             conn.state is State.SENDING or pending > 0
+
+    def round_trip(self) -> float | None:
+        """UDT's smoothed round trip (s) of the connection under way, radio queue
+        included; None between transfers or before it settled. Called from another
+        thread."""
+        sock = self._live
+        return None if sock is None else udt_stats.round_trip(sock)
 
     def cap(self, data_bps: float) -> None:
         """Hold this sender's connection to ``data_bps`` bits of file data per second
