@@ -35,6 +35,7 @@ log = logging.getLogger(__name__)
 
 TICK = 0.05
 """Seconds between the coordinator's looks at the lanes."""
+TAIL = float(__import__("os").environ.get("XTAIL", 1.0))
 HEADROOM = 2.0
 """Each lane's share above an even one when a budget's pacer (which hands bytes to all
 lanes together) holds them to it: two limits at the same rate would add their gaps."""
@@ -102,6 +103,7 @@ class LaneRun:
         whose open connections can carry the whole-file manifest)."""
         adaptive = self.lanes == 0
         shared = SharedRate(self.budget_bps) if adaptive and self.paced else None
+        changed = threading.Event()  # a lane finished a segment: look again at once
         if shared is not None:
             self.control = shared.control
             pace = shared.pace
@@ -154,6 +156,7 @@ class LaneRun:
                         inflight[lane] = 0
                         started[lane] = (index, time.monotonic())
                     result = sender.send_file(path, replace(manifest, segment=(index, count)))
+                    changed.set()
                     with self._lock:
                         inflight.pop(lane, None)
                         began = started.pop(lane, (index, time.monotonic()))[1]
@@ -168,6 +171,7 @@ class LaneRun:
                             todo.appendleft(index)
                             failures.append(result)
             finally:
+                changed.set()
                 with self._lock:
                     running.pop(lane, None)
                     senders.pop(lane, None)
@@ -211,6 +215,8 @@ class LaneRun:
                     if trips:  # the lanes share the radio's queue: the least says it
                         shared.control.smoothed(min(trips))
                     share = shared.share(now, acknowledged, len(busy))
+                    if not todo and shared.pace is None:
+                        share *= TAIL  # the last segments: shares change faster than lanes take them
                     for lane in running:
                         if shares.get(lane) != share:
                             shares[lane] = share
@@ -234,7 +240,8 @@ class LaneRun:
                         start(spare, index)
             if self.progress:
                 self.progress(acknowledged, manifest.size)
-            time.sleep(TICK)
+            changed.wait(TICK)
+            changed.clear()
         if self.control is not None:
             log.info("%s: paced at %.2f Mbit/s at the end", manifest.name,
                      self.control.rate_bps / 1e6)

@@ -47,7 +47,7 @@ class RateProbe:
     ahead: float = 2.0
     lead: float = 1.05
     near: float = 0.8
-    target: float = 0.015
+    target: float = float(__import__("os").environ.get("XTARGET", 0.015))
     window: float = 2.0
     settle: float = 0.5
     cut: float = 0.85
@@ -129,7 +129,7 @@ class RateProbe:
             return self.rate_bps
         # The start grows in half steps when the lanes' own round trips say the queue
         # at once: the first queue is seen before it overflows.
-        fine = self.phase == "startup" and self._dense
+        fine = self.phase == "startup" and (self._dense or bool(__import__("os").environ.get("XFINE")))
         self._next = now + (self.step / 2 if fine else self.step)
         least, answers, self._least, self._answers = self._least, self._answers, None, 0
         smoothed, self._smoothed = self._smoothed, None
@@ -163,6 +163,8 @@ class RateProbe:
             # less while the queue stands above the target, a little more below it.
             # (over what came since the start ended, at least two steps)
             since = self.delivered_bps(min(self.span, max(2 * self.step, now - self._paced_at)))
+            if now - self._paced_at < self.span and __import__("os").environ.get("XPEAK"):
+                since = max(since, peak)
             rate = (since or delivered or rate) * self._toward_target()
         elif self.queued <= self.room:
             rate *= (self.startup ** 0.5 if fine else self.startup) \

@@ -125,6 +125,14 @@ def _connect(address: tuple[str, int], timeout: float, max_rate_bps: int | None)
     raise ConnectionLost(f"no UDT answer from {address[0]}:{address[1]} within {timeout:g} s")
 
 
+def _payload(sock: Any) -> int:
+    """File bytes a full data packet carries (the MSS less IP, UDP and UDT headers)."""
+    try:
+        return int(sock.UDT_MSS) - 44
+    except udt4py().UDTException:
+        return 0
+
+
 def _pending(sock: Any) -> int:
     """Bytes accepted by UDT but not yet acknowledged by the peer (approximately).
 
@@ -271,6 +279,7 @@ class BulkSender:
         self._live_conn: SenderConnection | None = None
         self._cap: float | None = None
         self._cap_on: float | None = None  # the cap the live socket has
+        self._round_trip: float | None = None
 
     def acknowledged(self) -> tuple[tuple[int, int] | None, int, bool] | None:
         """(segment, bytes of it the receiver acknowledged, whether data of it is still
@@ -283,15 +292,18 @@ class BulkSender:
         if conn.state not in (State.SENDING, State.AWAIT_RECEIPT):
             return conn.manifest.segment, 0, False
         pending = _pending(sock)
+        stats = udt_stats.read(sock)
+        self._round_trip = None if stats is None else stats.round_trip
+        # data still to leave: what UDT holds less what it sent and awaits an ACK for
+        unsent = pending if stats is None else pending - stats.in_flight * _payload(sock)
         return conn.manifest.segment, max(0, conn.offset - pending), \
-            conn.state is State.SENDING or pending > 0
+            conn.state is State.SENDING or unsent > 0
 
     def round_trip(self) -> float | None:
         """UDT's smoothed round trip (s) of the connection under way, radio queue
-        included; None between transfers or before it settled. Called from another
-        thread."""
-        sock = self._live
-        return None if sock is None else udt_stats.round_trip(sock)
+        included, as :meth:`acknowledged` last read it; None between transfers or before
+        it settled. Called from another thread."""
+        return self._round_trip
 
     def cap(self, data_bps: float) -> None:
         """Hold this sender's connection to ``data_bps`` bits of file data per second
@@ -976,6 +988,10 @@ class BulkReceiver(UdtService):
                 return None
             self._release(m, sock)
             conn.send_receipt(True, m.sha256)
+            # The sender waits for this receipt; thumbnails and announcements need not
+            # hold it up (a lost connection is noticed by the caller's next send).
+            with contextlib.suppress(ConnectionLost):
+                _send_all(sock, conn.data_to_send())
             self.counters["verified"] += 1
             log.info("verified %s from %s (sha256 %s...)", m.name, m.vehicle_id, m.sha256[:12])
             self._status(m, "verified", m.size)

@@ -1,5 +1,5 @@
 """What libudt knows about a connection and udt4py does not pass on: the smoothed round
-trip. Does I/O (reads the library's state through ctypes).
+trip and the packets in flight. Does I/O (reads the library's state through ctypes).
 
 udt4py's ``perfmon`` fails on every call (its TraceInfo wrapper looks for a field it does
 not define), so the round trip is read with ``UDT::perfmon`` of the libudt udt4py is
@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+from dataclasses import dataclass
 from typing import Any
 
 _I64, _INT, _DBL = ctypes.c_int64, ctypes.c_int, ctypes.c_double
@@ -64,15 +65,25 @@ def _function() -> Any:
     return _perfmon
 
 
-def round_trip(sock: Any) -> float | None:
-    """UDT's smoothed round trip of ``sock`` (a udt4py socket), in seconds; None when it
-    cannot be read (no library, a closed socket) or is still near UDT's first guess."""
+@dataclass(frozen=True, slots=True)
+class Stats:
+    """A connection's state as libudt has it."""
+
+    #: smoothed round trip (s), radio queue included; None while near UDT's first guess
+    round_trip: float | None
+    #: data packets sent and not yet acknowledged
+    in_flight: int
+
+
+def read(sock: Any) -> Stats | None:
+    """What libudt knows of ``sock`` (a udt4py socket); None when it cannot be read (no
+    library, a closed socket)."""
     fn = _function()
     handle = getattr(sock, "socket", None)
     if fn is None or not isinstance(handle, int):
         return None
     perf = _PerfMon()
-    if fn(handle, ctypes.byref(perf), False) != 0 or perf.msRTT <= 0 \
-            or perf.pktRecvACKTotal < SETTLED_ACKS:
+    if fn(handle, ctypes.byref(perf), False) != 0:
         return None
-    return float(perf.msRTT) / 1000
+    settled = perf.msRTT > 0 and perf.pktRecvACKTotal >= SETTLED_ACKS
+    return Stats(float(perf.msRTT) / 1000 if settled else None, max(0, perf.pktFlightSize))
