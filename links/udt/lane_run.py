@@ -35,7 +35,6 @@ log = logging.getLogger(__name__)
 
 TICK = 0.05
 """Seconds between the coordinator's looks at the lanes."""
-TAIL = float(__import__("os").environ.get("XTAIL", 1.0))
 HEADROOM = 2.0
 """Each lane's share above an even one when a budget's pacer (which hands bytes to all
 lanes together) holds them to it: two limits at the same rate would add their gaps."""
@@ -117,7 +116,7 @@ class LaneRun:
         stored: set[int] = set()
         failures: list[Any] = []
         idle: list[Any] = []
-        import os; wanted = int(os.environ.get("XLANES", MAX_LANES)) if adaptive else self.lanes
+        wanted = MAX_LANES if adaptive else self.lanes
         senders: dict[int, Any] = {}
         shares: dict[int, float] = {}  # lane -> its share of the rate (bit/s)
         taken_over: set[int] = set()
@@ -215,8 +214,6 @@ class LaneRun:
                     if trips:  # the lanes share the radio's queue: the least says it
                         shared.control.smoothed(min(trips))
                     share = shared.share(now, acknowledged, len(busy))
-                    if not todo and shared.pace is None:
-                        share *= TAIL  # the last segments: shares change faster than lanes take them
                     for lane in running:
                         if shares.get(lane) != share:
                             shares[lane] = share

@@ -24,8 +24,8 @@ from pathlib import Path
 from typing import Any, Self
 
 from edge_vis.errors import LinkError
-from links.udt.lane_plan import segments_for
 from links.udt import udt_stats
+from links.udt.lane_plan import segments_for
 from links.udt.lane_run import LaneRun
 from links.udt.protocol import (
     DATA_CHUNK,
@@ -287,17 +287,21 @@ class BulkSender:
         another thread: a lane waiting for an answer or a receipt leaves the radio to
         the others."""
         sock, conn = self._live, self._live_conn
-        if sock is None or conn is None or conn.manifest is None:
+        if sock is None or conn is None:
             return None
-        if conn.state not in (State.SENDING, State.AWAIT_RECEIPT):
-            return conn.manifest.segment, 0, False
+        # (read once: the sender's thread moves on to the next segment meanwhile)
+        manifest, state, offset = conn.manifest, conn.state, conn.offset
+        if manifest is None:
+            return None
+        if state not in (State.SENDING, State.AWAIT_RECEIPT):
+            return manifest.segment, 0, False
         pending = _pending(sock)
         stats = udt_stats.read(sock)
         self._round_trip = None if stats is None else stats.round_trip
         # data still to leave: what UDT holds less what it sent and awaits an ACK for
         unsent = pending if stats is None else pending - stats.in_flight * _payload(sock)
-        return conn.manifest.segment, max(0, conn.offset - pending), \
-            conn.state is State.SENDING or unsent > 0
+        return manifest.segment, max(0, offset - pending), \
+            state is State.SENDING or unsent > 0
 
     def round_trip(self) -> float | None:
         """UDT's smoothed round trip (s) of the connection under way, radio queue
