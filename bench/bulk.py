@@ -53,7 +53,6 @@ from lossy_proxy import separate_process
 
 from links.udt import UdtBulkChannel
 
-
 _RUN = itertools.count()
 """Each run's own folders and files: a repeated row must not find the last one's spool."""
 

@@ -221,6 +221,9 @@ class TransferResult:
     code: Reason | None = None
     attempts: int = 1
     resumed_from: tuple[int, ...] = ()
+    #: the SHA-256 the receipt confirmed: a lane's segment receipt carries the whole
+    #: file's when that segment completed the file and the receiver verified it
+    sha256: str = ""
 
 
 ProgressFn = Callable[[int, int], None]
@@ -366,9 +369,12 @@ class BulkSender:
         try:
             if failed is not None:
                 return TransferResult(False, failed.reason, failed.code, attempts, offsets)
-            # The whole-file manifest on a lane's open connection: no new handshake.
-            closer = idle.pop() if idle else self
-            final = closer._send_one(path, manifest)
+            if any(r.ok and r.sha256 == manifest.sha256 for r in run.results):
+                # the last segment's receipt carried the verdict on the whole file
+                final, closer = TransferResult(True, "SHA-256 verified", attempts=0), self
+            else:  # the whole-file manifest on a lane's open connection: no handshake
+                closer = idle.pop() if idle else self
+                final = closer._send_one(path, manifest)
         finally:
             for sender in idle:
                 sender.close()
@@ -397,8 +403,8 @@ class BulkSender:
                          outcome)
             if isinstance(outcome, TransferResult):
                 return TransferResult(
-                    outcome.ok, outcome.reason, outcome.code, attempts, tuple(offsets)
-                )
+                    outcome.ok, outcome.reason, outcome.code, attempts, tuple(offsets),
+                    outcome.sha256)
             if offsets and offsets[-1] > best:
                 best = offsets[-1]
                 last_progress = time.monotonic()
@@ -538,7 +544,8 @@ class BulkSender:
             if self.progress and receipt.ok:
                 self.progress(manifest.length, manifest.length)
             return TransferResult(receipt.ok, receipt.reason or "SHA-256 verified",
-                                  None if receipt.ok else Reason.HASH_MISMATCH), True
+                                  None if receipt.ok else Reason.HASH_MISMATCH,
+                                  sha256=receipt.sha256 if receipt.ok else ""), True
         return self._ended(receipt), False
 
     def _stream(self, sock: Any, conn: SenderConnection, path: Path, offset: int,
@@ -773,6 +780,8 @@ class BulkReceiver(UdtService):
         self._lock = threading.Lock()
         self._local = threading.local()
         self._cut: set[int] = set()  # ids of sockets their serving thread must close
+        self._verified_early: set[str] = set()  # by a pushed file's last segment
+        self._status_lock = threading.Lock()
         self.counters = {"connections": 0, "protocol_errors": 0, "refused": 0, "verified": 0,
                          "unauthenticated": 0}
 
@@ -933,6 +942,54 @@ class BulkReceiver(UdtService):
         entry = self.spool.entry(m.transfer_id)
         return m.size if entry is None else min(m.size, entry.held)
 
+    def _completes(self, m: Manifest) -> bool:
+        """Whether this pushed segment was the last one the file lacked (claimed here by
+        one connection only: two lanes may finish together)."""
+        if self._local.expect is not None or not self.spool.all_held(m.transfer_id):
+            return False  # a fetch asks for the verdict itself
+        entry = self.spool.entry(m.transfer_id)
+        with self._lock:
+            if entry is None or entry.state.value != "partial" \
+                    or m.transfer_id in self._verified_early:
+                return False
+            self._verified_early.add(m.transfer_id)
+        return True
+
+    def _verdict(self, conn: ReceiverConnection, m: Manifest, peer: str) -> None:
+        """Verify the whole file and answer with the receipt: on the whole-file manifest,
+        or on the segment that completed a pushed file (its receipt then carries the
+        file's SHA-256, and the sender need not ask)."""
+        sock, whole = self._local.sock, m.whole()
+        try:
+            path = self.spool.complete(m)
+        except SpoolRefusal as exc:
+            log.warning("%s from %s failed verification: %s", m.name, peer, exc.reason)
+            with self._lock:
+                self._verified_early.discard(m.transfer_id)
+            self._release(m, sock)
+            conn.send_receipt(False, "", exc.reason)
+            self._status(whole, "failed", m.size, exc.reason)
+            self._outcome("mismatch", exc.reason)
+            return None
+        self._release(m, sock)
+        conn.send_receipt(True, m.sha256, "" if m.segment is None else
+                          f"segment {m.segment[0] + 1}/{m.segment[1]} stored; SHA-256 verified")
+        # The sender waits for this receipt; thumbnails and announcements need not
+        # hold it up (a lost connection is noticed by the caller's next send).
+        with contextlib.suppress(ConnectionLost):
+            _send_all(sock, conn.data_to_send())
+        self.counters["verified"] += 1
+        log.info("verified %s from %s (sha256 %s...)", m.name, m.vehicle_id, m.sha256[:12])
+        with self._status_lock:
+            self._status(whole, "verified", m.size)
+        self._outcome("verified")
+        if self.on_verified is not None:
+            try:
+                self.on_verified(whole, path)
+            except Exception:  # announcing must not lose the file
+                log.exception("announcing %s failed", m.name)
+        return None
+
     def _handle(self, conn: ReceiverConnection, event: Any, peer: str,
                 current: Manifest | None) -> Manifest | None:
         if isinstance(event, ManifestReceived):
@@ -977,35 +1034,23 @@ class BulkReceiver(UdtService):
             sock = self._local.sock
             if m.segment is not None:
                 self._release(m, sock)
+                if self._completes(m):  # a pushed file's last segment: the verdict now
+                    return self._verdict(conn, m, peer)
                 conn.send_receipt(True, "", f"segment {m.segment[0] + 1}/{m.segment[1]} stored")
-                self._status(m, "active", self._held(m))
+                with self._status_lock:  # never after the verdict another lane gave
+                    if m.transfer_id not in self._verified_early:
+                        self._status(m, "active", self._held(m))
                 self._outcome("stored")
                 return None
-            try:
-                path = self.spool.complete(m)
-            except SpoolRefusal as exc:
-                log.warning("%s from %s failed verification: %s", m.name, peer, exc.reason)
+            with self._lock:
+                early = m.transfer_id in self._verified_early
+                self._verified_early.discard(m.transfer_id)
+            if early:  # verified with its last segment; the sender asks anyway
                 self._release(m, sock)
-                conn.send_receipt(False, "", exc.reason)
-                self._status(m, "failed", m.size, exc.reason)
-                self._outcome("mismatch", exc.reason)
+                conn.send_receipt(True, m.sha256)
+                self._outcome("verified")
                 return None
-            self._release(m, sock)
-            conn.send_receipt(True, m.sha256)
-            # The sender waits for this receipt; thumbnails and announcements need not
-            # hold it up (a lost connection is noticed by the caller's next send).
-            with contextlib.suppress(ConnectionLost):
-                _send_all(sock, conn.data_to_send())
-            self.counters["verified"] += 1
-            log.info("verified %s from %s (sha256 %s...)", m.name, m.vehicle_id, m.sha256[:12])
-            self._status(m, "verified", m.size)
-            self._outcome("verified")
-            if self.on_verified is not None:
-                try:
-                    self.on_verified(m, path)
-                except Exception:  # announcing must not lose the file
-                    log.exception("announcing %s failed", m.name)
-            return None
+            return self._verdict(conn, m, peer)
         if isinstance(event, ManifestRejected):
             self.counters["refused"] += 1
             if event.code is Reason.UNAUTHENTICATED:

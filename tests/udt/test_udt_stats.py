@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-udt4py = pytest.importorskip("udt4py")
+pytest.importorskip("udt4py")
 
 from lossy_proxy import LossyProxy
 from udt_helpers import wait_for
@@ -19,6 +19,7 @@ pytestmark = pytest.mark.udt
 
 
 def test_a_connection_through_a_delaying_radio_reports_its_round_trip_and_flight():
+    udt4py = pytest.importorskip("udt4py")
     server = udt4py.UDTSocket()
     server.bind(("127.0.0.1", 0))
     server.listen(1)

@@ -251,6 +251,28 @@ def test_paced_lanes_through_a_radio_cut_twice_resume_and_verify(tmp_path: Path,
     assert (tmp_path / "ops" / "uuv1" / "img.png").read_bytes() == content
 
 
+def test_the_last_segment_of_a_push_brings_the_verdict_once(tmp_path: Path, make_file):
+    """The receipt of the segment that completes the file carries its verified SHA-256,
+    so the sender does not ask again with the whole-file manifest (a round trip less);
+    a sender that does ask (an older one) is answered without a second announcement."""
+    path, content = make_file(3 << 20)
+    published: list[str] = []
+    with UdtBulkChannel.ImageService(
+            tmp_path / "ops", publish=lambda topic, sample: published.append(topic)) as ops:
+        m = UdtBulkChannel.manifest_for_file(path, vehicle_id="uuv1")
+        result = UdtBulkChannel.send_image(path, ops.address, manifest=m, lanes=4)
+        assert result.ok, result.reason
+        assert len(content) not in result.resumed_from  # no whole-file manifest was sent
+        assert ops.receiver.counters["verified"] == 1
+        with UdtBulkChannel.BulkSender(ops.address) as older:
+            again = older.send_file(path, m)
+        assert again.ok and again.resumed_from == (len(content),)
+        wait_for(lambda: "ImageProduct" in published, 5, "the announcement")
+        time.sleep(0.2)
+    assert published.count("ImageProduct") == 1
+    assert (tmp_path / "ops" / "uuv1" / "img.png").read_bytes() == content
+
+
 def test_lanes_whose_data_fails_the_hash_are_refused_then_sent_again(tmp_path: Path,
                                                                      make_file):
     """The receiver hashes each lane's segments as they are stored; data that is not the
