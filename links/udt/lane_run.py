@@ -4,10 +4,12 @@ The decisions are :mod:`links.udt.lane_plan`'s (how many segments, the shared bu
 pacing, which stalled segment to send again) and :mod:`links.udt.rate_probe`'s (the rate
 all lanes of an adaptive transfer keep to together); this module runs them: each lane is
 a :class:`~links.udt.transfer.BulkSender` on its own connection that sends segment after
-segment; a coordinating loop looks at the lanes every ``TICK`` seconds, feeds the bytes
-the receiver acknowledged to the rate probe, gives each lane with data on its way an
-equal share of the rate (``UDT_MAXBW``; a lane waiting for an answer or a receipt leaves
-its share to the others), starts lanes one per tick (each opens with a window of packets
+segment; a coordinating loop looks at the lanes every ``TICK`` seconds (and at once when
+a lane finishes a segment), feeds the bytes the receiver acknowledged and the lanes'
+smoothed round trips to the rate probe, gives each lane with data still to leave an
+equal share of the rate (``UDT_MAXBW``; a lane waiting for an answer, for
+acknowledgements of data already sent, or for a receipt leaves its share to the
+others), starts lanes one per tick (each opens with a window of packets
 sent before any pacing applies) and, once every segment is handed out, takes a stalled
 one over on an idle lane (the receiver hands the segment to the newest connection and
 resumes it at the bytes it holds).

@@ -286,9 +286,10 @@ class BulkSender:
 
     def acknowledged(self) -> tuple[tuple[int, int] | None, int, bool] | None:
         """(segment, bytes of it the receiver acknowledged, whether data of it is still
-        on its way) of the transfer under way now; None between transfers. Called from
-        another thread: a lane waiting for an answer or a receipt leaves the radio to
-        the others."""
+        to leave) of the transfer under way now; None between transfers. Called from
+        another thread: a lane waiting for an answer, for acknowledgements of what it
+        sent or for a receipt leaves the radio to the others. Also reads the smoothed
+        round trip :meth:`round_trip` returns."""
         sock, conn = self._live, self._live_conn
         if sock is None or conn is None:
             return None
