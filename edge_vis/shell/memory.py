@@ -27,7 +27,6 @@ both, 0.6 MiB remained.
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import gc
 import importlib
 import logging
@@ -48,12 +47,14 @@ _trim: Callable[[int], int] | None = None
 
 
 def _libc_function(name: str) -> Any:
-    """The C library's function ``name`` (a ctypes function), or None."""
-    path = ctypes.util.find_library("c")
-    if path is None:
-        return None
+    """The C library's function ``name`` (a ctypes function), or None.
+
+    Looked up among the symbols the process has loaded (``dlopen(NULL)``), which include
+    the C library's: ``ctypes.util.find_library`` would import ``subprocess``,
+    ``tempfile`` and ``shutil`` and run a compiler or ``ldconfig`` to find a file name.
+    """
     try:
-        function = getattr(ctypes.CDLL(path), name)
+        function = getattr(ctypes.CDLL(None), name)
     except (OSError, AttributeError):  # not glibc (musl, macOS)
         return None
     return function
