@@ -609,12 +609,13 @@ def engine_main(seconds: float) -> None:
 
 #: runs ``edge-vis`` as usual; on SIGUSR1 writes the modules it has loaded to argv[1]
 RELAY_DUMPING_MODULES = """
-import signal, sys
+import os, signal, sys
 out = sys.argv.pop(1)
 def dump(*_):
     names = [name for name, module in list(sys.modules.items()) if module is not None]
-    with open(out, "w") as f:
+    with open(out + ".part", "w") as f:
         f.write("\\n".join(names))
+    os.replace(out + ".part", out)  # whole or not at all for the reader
 signal.signal(signal.SIGUSR1, dump)
 from edge_vis.cli import main
 sys.argv[0] = "edge-vis"

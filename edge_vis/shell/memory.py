@@ -80,9 +80,10 @@ def import_without_openssl() -> None:
     resident for the one and 3.4 MiB for the other, for nothing. With ``ssl`` and
     ``_hashlib`` unavailable while they are imported, asyncio leaves its TLS support off and
     hashlib serves every digest the relay and Cyclone DDS use (md5 for XTypes type
-    identifiers, sha256, blake2) from Python's own implementations, with the same results.
-    ``ssl`` itself stays importable for any later user. Does nothing for a module already
-    loaded.
+    identifiers, sha256, blake2) from Python's own implementations, with the same results
+    (a few times slower: 0.25 ms instead of 0.05 ms for a 64 KiB image's sha256). ``ssl``
+    and :mod:`hmac` (a UDT link's handshake) still load OpenSSL for whoever imports them
+    later. Does nothing for a module already loaded.
     """
     for module, blocked in (("asyncio", "ssl"), ("hashlib", "_hashlib")):
         if module in sys.modules or blocked in sys.modules:
