@@ -651,6 +651,13 @@ def relay_floor(relay_cmd: Sequence[str], env: dict[str, str], listener: socket.
     nothing else: what the relay would cost if it held no data of its own.
     """
     modules = Path(tmp, "modules.txt")
+    listener.setblocking(False)  # the measured relay's queries must not pass for this one's
+    while True:
+        try:
+            listener.recv(65536)
+        except BlockingIOError:
+            break
+    listener.setblocking(True)
     relay = subprocess.Popen([sys.executable, "-c", RELAY_DUMPING_MODULES, str(modules),
                               *relay_cmd[3:]], env=env, stderr=subprocess.DEVNULL)
     try:
