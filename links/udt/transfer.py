@@ -51,6 +51,9 @@ from links.udt.spool import Spool, SpoolRefusal
 
 log = logging.getLogger(__name__)
 
+EARLY_KEPT = 1024
+"""Transfers a receiver remembers as verified with their last segment, to answer a
+sender that asks again with the whole-file manifest without announcing twice."""
 POLL_MS = 250
 """Receive timeout on every socket, so threads notice ``stop()`` within this time."""
 PACED_CHUNK = 64 * 1024
@@ -781,7 +784,8 @@ class BulkReceiver(UdtService):
         self._lock = threading.Lock()
         self._local = threading.local()
         self._cut: set[int] = set()  # ids of sockets their serving thread must close
-        self._verified_early: set[str] = set()  # by a pushed file's last segment
+        #: transfers verified with their last segment (the most recent ``EARLY_KEPT``)
+        self._verified_early: dict[str, None] = {}
         self._status_lock = threading.Lock()
         self.counters = {"connections": 0, "protocol_errors": 0, "refused": 0, "verified": 0,
                          "unauthenticated": 0}
@@ -944,16 +948,18 @@ class BulkReceiver(UdtService):
         return m.size if entry is None else min(m.size, entry.held)
 
     def _completes(self, m: Manifest) -> bool:
-        """Whether this pushed segment was the last one the file lacked (claimed here by
-        one connection only: two lanes may finish together)."""
-        if self._local.expect is not None or not self.spool.all_held(m.transfer_id):
-            return False  # a fetch asks for the verdict itself
+        """Whether this segment was the last one the file lacked (claimed here by one
+        connection only: two lanes may finish together)."""
+        if not self.spool.all_held(m.transfer_id):
+            return False
         entry = self.spool.entry(m.transfer_id)
         with self._lock:
             if entry is None or entry.state.value != "partial" \
                     or m.transfer_id in self._verified_early:
                 return False
-            self._verified_early.add(m.transfer_id)
+            self._verified_early[m.transfer_id] = None
+            while len(self._verified_early) > EARLY_KEPT:
+                del self._verified_early[next(iter(self._verified_early))]
         return True
 
     def _verdict(self, conn: ReceiverConnection, m: Manifest, peer: str) -> None:
@@ -966,7 +972,7 @@ class BulkReceiver(UdtService):
         except SpoolRefusal as exc:
             log.warning("%s from %s failed verification: %s", m.name, peer, exc.reason)
             with self._lock:
-                self._verified_early.discard(m.transfer_id)
+                self._verified_early.pop(m.transfer_id, None)
             self._release(m, sock)
             conn.send_receipt(False, "", exc.reason)
             self._status(whole, "failed", m.size, exc.reason)
@@ -1035,7 +1041,7 @@ class BulkReceiver(UdtService):
             sock = self._local.sock
             if m.segment is not None:
                 self._release(m, sock)
-                if self._completes(m):  # a pushed file's last segment: the verdict now
+                if self._completes(m):  # the file's last segment: the verdict now
                     return self._verdict(conn, m, peer)
                 conn.send_receipt(True, "", f"segment {m.segment[0] + 1}/{m.segment[1]} stored")
                 with self._status_lock:  # never after the verdict another lane gave
@@ -1044,8 +1050,7 @@ class BulkReceiver(UdtService):
                 self._outcome("stored")
                 return None
             with self._lock:
-                early = m.transfer_id in self._verified_early
-                self._verified_early.discard(m.transfer_id)
+                early = self._verified_early.pop(m.transfer_id, "") is None
             if early:  # verified with its last segment; the sender asks anyway
                 self._release(m, sock)
                 conn.send_receipt(True, m.sha256)
