@@ -95,3 +95,17 @@ def test_the_relay_command_loads_neither_other_commands_nor_openssl() -> None:
     subprocess.run([sys.executable, "-c", "from edge_vis.cli import build_parser; "
                     "build_parser('run'); import ssl, asyncio; ssl.create_default_context()"],
                    check=True)
+
+
+def test_a_relay_with_a_bulk_channel_hashes_images_with_openssl() -> None:
+    # the relay leaves OpenSSL out to stay small, but the UDT channel's image checks must
+    # not fall to Python's own SHA-256 (six times slower on a large image)
+    probe = ("from edge_vis.cli import build_parser; build_parser('run'); "
+             "from links.udt import protocol; "
+             "print(protocol.new_sha256.__module__, protocol.new_sha256(b'edge').hexdigest(), "
+             "protocol.auth_tag(bytes(16), b'c', b'm').hex())")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True).stdout.split()
+    assert out == ["_hashlib", hashlib.sha256(b"edge").hexdigest(),
+                   hmac.new(bytes(16), b"edge-vis bulk manifest auth v1\x00cm",
+                            hashlib.sha256).hexdigest()]

@@ -8,7 +8,6 @@ journalled spool, an announcer publishing each verified file as ``ImageProduct``
 
 from __future__ import annotations
 
-import hashlib
 import logging
 import os
 import threading
@@ -20,7 +19,14 @@ from typing import Any
 from links.udt import products
 from links.udt.fetch_queue import FetchQueue, Priority, Wanted
 from links.udt.image_index import ImageIndex
-from links.udt.protocol import AtrMetadata, Backoff, Manifest, check_file_name, transfer_id_for
+from links.udt.protocol import (
+    AtrMetadata,
+    Backoff,
+    Manifest,
+    check_file_name,
+    new_sha256,
+    transfer_id_for,
+)
 from links.udt.puller import Puller
 from links.udt.spool import Spool
 from links.udt.thumbnail import NoThumbnail, thumbnail
@@ -61,7 +67,7 @@ def manifest_for_file(
 ) -> Manifest:
     """Hash ``path`` and describe it; the transfer id is stable so a re-run resumes."""
     p = Path(path)
-    digest = hashlib.sha256()
+    digest = new_sha256()
     size = 0
     with open(p, "rb") as fh:
         while chunk := fh.read(1 << 20):

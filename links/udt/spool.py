@@ -25,7 +25,6 @@ confirmed it.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import logging
 import os
@@ -38,7 +37,7 @@ from enum import Enum
 from pathlib import Path
 from typing import IO, Any
 
-from links.udt.protocol import Manifest, ManifestError, Reason, segment_bounds
+from links.udt.protocol import Manifest, ManifestError, Reason, new_sha256, segment_bounds
 
 log = logging.getLogger(__name__)
 
@@ -418,7 +417,7 @@ class Spool:
         if upto <= entry.hashed or entry.state is not EntryState.PARTIAL:
             return
         if entry.digest is None:
-            entry.digest, entry.hashed = hashlib.sha256(), 0
+            entry.digest, entry.hashed = new_sha256(), 0
         with open(self._part(entry.manifest.transfer_id), "rb") as fh:
             fh.seek(entry.hashed)
             while entry.hashed < upto and (
@@ -455,7 +454,7 @@ class Spool:
             self.sync(m)
             part = self._part(tid)
             hashed = entry.hashed if entry.digest is not None else 0
-            digest = entry.digest.copy() if hashed else hashlib.sha256()
+            digest = entry.digest.copy() if hashed else new_sha256()
         size = hashed
         with open(part, "rb") as fh:
             fh.seek(hashed)
