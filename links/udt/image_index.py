@@ -38,10 +38,18 @@ class ImageIndex:
         return None if found is None else dict(found)
 
     def key(self, manifest: Manifest) -> tuple[str, str]:
-        """``(vehicle_id, image_id)`` samples about this transfer's image are published under."""
+        """``(vehicle_id, image_id)`` samples about this transfer's image are published under.
+
+        The first sample published names the image: a transfer heard of before any
+        announcement claims its key here, so an announcement that arrives while the file is
+        still being verified (a pushing sender may already have its answer) joins it rather
+        than starting a second product. The claim carries no transfer id, so the image
+        still counts as not here until :meth:`transferred`.
+        """
         found = self._by_sha.get(manifest.sha256)
         if found is None:
-            return manifest.vehicle_id, manifest.transfer_id
+            found = {**products.image_product(manifest), "transfer_id": ""}
+            self._keep(manifest.sha256, found)
         return found["vehicle_id"], found["image_id"]
 
     def announced(self, sample: dict[str, Any]) -> dict[str, Any]:

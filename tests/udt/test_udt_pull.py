@@ -21,6 +21,8 @@ from udt_helpers import free_udp_port, sha, wait_for
 
 from links.udt import UdtBulkChannel
 from links.udt.fetch_queue import FetchQueue
+from links.udt.image_index import ImageIndex
+from links.udt.image_service import manifest_for_file
 
 pytestmark = pytest.mark.udt
 
@@ -95,6 +97,23 @@ def test_one_product_per_image_in_every_order(tmp_path: Path, make_file, order: 
     if order == "announce-first":
         assert key == ("Nemo-60", "atr-5")
         wait_for(lambda: server.counters["served"] == 1, 5, "the server's receipt")
+
+
+def test_an_announcement_during_a_pushed_files_verification_joins_its_product(
+        tmp_path: Path, make_file):
+    # the sender may hold its verdict (it comes with the last segment's receipt) before the
+    # relay has published the product: an announcement then must not start a second one
+    path, content = make_file(1000, "atr-7.png")
+    manifest = manifest_for_file(path, vehicle_id="uuv-delta")
+    index = ImageIndex()
+    status_key = index.key(manifest)  # the push's first TransferStatus names the image
+    announced = index.announced(announcement(content, 7))
+    assert (announced["vehicle_id"], announced["image_id"]) == status_key
+    assert announced["transfer_id"] == ""  # not here yet: the relay may still fetch it
+    assert announced["targets"][0]["target_class"] == "mine-like"
+    verified = index.transferred(manifest)
+    assert (verified["vehicle_id"], verified["image_id"]) == status_key
+    assert verified["transfer_id"] == manifest.transfer_id and verified["targets"]
 
 
 def test_fetch_resumes_after_the_connection_is_cut_several_times(tmp_path: Path, make_file):
