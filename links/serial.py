@@ -43,7 +43,13 @@ from typing import Any, ClassVar
 import serial  # pyserial
 
 from edge_vis.errors import LinkError
-from edge_vis.jaus.serial_framing import FRAME_OVERHEAD, SerialDeframer, SerialError, frame
+from edge_vis.jaus.serial_framing import (
+    FRAME_OVERHEAD,
+    SerialDeframer,
+    SerialError,
+    frame,
+    frame_wires,
+)
 from edge_vis.jaus.transport import Packet
 from edge_vis.routing.link import Link, LinkOptions, LinkUrl, Peer
 from edge_vis.schema import setting
@@ -218,11 +224,20 @@ class SerialLink(Link):
         if self._fd is None:
             self.counters.dropped("link down", len(packets))
             return
-        if not packets:
+        if packets:
+            self._write(list(map(frame, packets)))
+
+    def _send_wires(self, wires: Sequence[bytes], peer: Peer | None) -> None:
+        if self._fd is None:
+            self.counters.dropped("link down", len(wires))
             return
+        if wires:
+            self._write(frame_wires(wires))
+
+    def _write(self, framed: list[bytes]) -> None:
+        """Buffer whole frames (up to the buffer's bound) and write what pacing allows."""
         out, frames = self._out, self._frames
         before = len(out)
-        framed = list(map(frame, packets))
         lengths = list(map(len, framed))
         if before + sum(lengths) - lengths[-1] <= MAX_WRITE_BUFFER:  # all fit (usual)
             out += b"".join(framed)
@@ -232,7 +247,7 @@ class SerialLink(Link):
             sent = 0
             for data in framed:
                 if len(out) > MAX_WRITE_BUFFER:
-                    self.counters.dropped("send buffer full", len(packets) - sent)
+                    self.counters.dropped("send buffer full", len(framed) - sent)
                     break
                 out += data
                 frames.append(len(data))

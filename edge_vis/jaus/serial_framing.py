@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import struct
 from binascii import crc_hqx
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from edge_vis.errors import DecodeError
@@ -126,6 +127,25 @@ def frame(packet: Packet) -> bytes:
     # the packet CRC, little-endian, is the bit-reversed register's bytes in swapped order
     return b"".join((start, message.replace(_DLE, _DLE2), _END, _TAIL[crc >> 8],
                      _TAIL[crc & 0xFF]))
+
+
+def frame_wires(messages: Iterable[bytes]) -> list[bytes]:
+    """The frames of general transport messages given as their bytes (``Packet.wire``,
+    or what :func:`~edge_vis.jaus.transport.encode_packet` returns): :func:`frame` for a
+    batch, without a call per message; byte for byte the same frames."""
+    heads = _HEADS
+    rev = _REVERSED
+    tail = _TAIL
+    end = _END
+    dle, dle2 = _DLE, _DLE2
+    join = b"".join
+    out = []
+    for message in messages:
+        start, register = heads.get(len(message)) or _framed_head(len(message))
+        crc = crc_hqx(message.translate(rev), register)
+        out.append(join((start, message.replace(dle, dle2), end, tail[crc >> 8],
+                         tail[crc & 0xFF])))
+    return out
 
 
 @dataclass(frozen=True, slots=True)

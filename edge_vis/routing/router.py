@@ -26,6 +26,18 @@ component's own counter (starting at 1), fragments it to the link MTU, and route
 known destination → unicast; wildcard → broadcast on every link; unknown destination →
 broadcast with ACK requested (JTS behaviour: the owner's ACK teaches the route).
 
+*Pass-through.* :meth:`Router.forward` takes datagrams that only pass through as their
+bytes (one general transport message each, as received) and decides for them without
+building a :class:`~edge_vis.jaus.transport.Packet`: the header fields it needs are read
+from the bytes, the duplicate check is the same table's, and the route comes from a
+cache of the full path's decisions per ``(link, peer, source, destination)``, emptied
+whenever anything those decisions read changes (the address book, static routes, relay
+switches, local components, links). It takes the longest leading run that the full path
+would have forwarded unchanged (no ACK/NAK, no local or broadcast address, a route
+already learned, the source's route unchanged) and leaves the rest to
+:meth:`Router.receive`, in order; counters and the links' budgets and queues come out as
+on the full path, and what leaves is :class:`ForwardWires`, the same bytes.
+
 *Duplicates* (redundant paths, radio retries) are dropped when ``(source, destination,
 sequence, data flags, payload)`` was seen within ``duplicate_window`` s; a duplicate that asks
 for an ACK is ACKed again, since our first ACK was evidently lost. The table keeps one
@@ -65,10 +77,21 @@ import logging
 from collections import Counter, deque
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
+from struct import error as struct_error
 
 from edge_vis.errors import EncodeError, LocalProtocolError
-from edge_vis.jaus.address import JausAddress
-from edge_vis.jaus.transport import JTS_MAX_PAYLOAD, AckNak, Broadcast, DataFlags, Packet
+from edge_vis.jaus.address import ADDRESSES, JausAddress, address_from_id
+from edge_vis.jaus.transport import (
+    HEADER,
+    JTS_MAX_PAYLOAD,
+    MIN_DATA_SIZE,
+    AckNak,
+    Broadcast,
+    DataFlags,
+    Packet,
+    encode_packet,
+    packet_from_wire,
+)
 from edge_vis.routing.link import Peer, format_peer
 from edge_vis.routing.traffic import LATEST_WINS_MAX_PRIORITY, QueueDrop, latest_wins_key
 
@@ -114,7 +137,24 @@ class DeliveryFailed:
     reason: str
 
 
-Action = SendPackets | Deliver | DeliveryFailed
+@dataclass(frozen=True, slots=True)
+class ForwardWires:
+    """Write general transport messages given as their bytes (as they were received, see
+    :meth:`Router.forward`) on link ``link`` to ``peer``."""
+
+    link: str
+    peer: Peer | None
+    wires: tuple[bytes, ...]
+
+
+Action = SendPackets | Deliver | DeliveryFailed | ForwardWires
+#: a pass-through decision: the source's route, the target link and peer
+_Decision = tuple["Route", str, Peer | None]
+
+#: a decision not made yet (see :meth:`Router.forward`)
+_UNDECIDED = object()
+#: ACK/NAK bits of the flags byte
+_ACK_BITS = 0x30
 
 
 class _NewSend:
@@ -250,6 +290,9 @@ class Router:
         # static routes matched per destination (cleared when the static routes change)
         self._static_hits: dict[JausAddress, Route] = {}
         self._pending: dict[tuple[int, int], _Pending] = {}
+        # the pass-through path's decisions: (link, peer) -> (source id, destination id)
+        # -> (source's route, target link, target peer), or None: not for that path
+        self._decisions: dict[tuple[str, Peer], dict[tuple[int, int], _Decision | None]] = {}
         self._next_sweep: float | None = None
         self._reassembler = (
             Reassembler(timeout=self.config.reassembly_timeout) if Reassembler is not None else None
@@ -262,10 +305,12 @@ class Router:
         if address.is_broadcast:
             raise ValueError(f"a local component needs a concrete address, not {address}")
         self._local.add(address)
+        self._decisions.clear()
 
     def remove_local(self, address: JausAddress) -> None:
         """Stop delivering to ``address``."""
         self._local.discard(address)
+        self._decisions.clear()
 
     @property
     def local(self) -> frozenset[JausAddress]:
@@ -293,6 +338,7 @@ class Router:
             name, mtu, bandwidth_bps, overhead, queue_limit, burst, tokens=burst,
             latest_wins=latest_wins,
         )
+        self._decisions.clear()
 
     def remove_link(self, name: str) -> None:
         """Forget a link, its routes, relay switches and queue."""
@@ -301,6 +347,7 @@ class Router:
         self._learned = {a: r for a, r in self._learned.items() if r.link != name}
         self._static = [(a, r) for a, r in self._static if r.link != name]
         self._static_hits.clear()
+        self._decisions.clear()
 
     def set_relay(self, source: str, target: str, enabled: bool = True, *,
                   both_ways: bool = True) -> None:
@@ -310,12 +357,14 @@ class Router:
                 self._relay.add(pair)
             else:
                 self._relay.discard(pair)
+        self._decisions.clear()
 
     def add_route(self, pattern: JausAddress, link: str, peer: Peer | None) -> None:
         """Seed the address book: ``pattern`` (wildcards allowed) lives at ``(link, peer)``."""
         self._static.append((pattern, Route(link, peer, static=True)))
         self._static.sort(key=lambda item: _wildcards(item[0]))
         self._static_hits.clear()
+        self._decisions.clear()
 
     def lookup(self, address: JausAddress) -> Route | None:
         """Where ``address`` lives: a learned route, else the most specific static one."""
@@ -372,14 +421,14 @@ class Router:
         # one's decision; anything that changes the address book ends it
         fast_source: JausAddress | None = None
         fast_dest: JausAddress | None = None
-        fast_sid = fast_did = 0
         fast_batch: list[Packet] = []
         for packet in packets:
             source = packet.source
             dest = packet.destination
             if source is fast_source and dest is fast_dest and not packet.ack_nak:
-                key = hash((fast_sid, fast_did, packet.sequence, packet.data_flags,
-                            packet.payload))
+                wire = packet.wire
+                key = hash((wire[3] & 0xC0, wire[4:])) if wire is not None else \
+                    _duplicate_key(packet)
                 until = seen.get(key)
                 if until is None or until <= now:
                     if len(seen) < max_duplicates:
@@ -392,8 +441,9 @@ class Router:
             if source in local:
                 counters["dropped: own source"] += 1
                 continue
-            sid, did = source.id, dest.id
-            key = hash((sid, did, packet.sequence, packet.data_flags, packet.payload))
+            wire = packet.wire
+            key = hash((wire[3] & 0xC0, wire[4:])) if wire is not None else \
+                _duplicate_key(packet)
             route = learned.get(source)
             until = seen.get(key)
             if until is not None and until > now:
@@ -415,6 +465,7 @@ class Router:
                         del learned[next(iter(learned))]  # re-learned on its next packet
                         counters["routes forgotten: table full"] += 1
                     learned[source] = Route(link, peer, seen=now)
+                    self._decisions.clear()
                     fast_source = None
                 else:
                     route.seen = now
@@ -441,7 +492,7 @@ class Router:
                         batch = out.setdefault((route.link, route.peer), [])
                         batch.append(packet)
                         if not packet.ack_nak:
-                            fast_source, fast_dest, fast_sid, fast_did = source, dest, sid, did
+                            fast_source, fast_dest = source, dest
                             fast_batch = batch
                     else:
                         counters["dropped: relay off"] += 1
@@ -455,6 +506,109 @@ class Router:
             counters["forwarded"] += len(batch)
             self._queue(actions, target, target_peer, batch, now)
         return actions
+
+    def forward(self, link: str, peer: Peer, wires: Sequence[bytes], now: float
+                ) -> tuple[int, list[Action], bool]:
+        """The pass-through path (see the module docstring): route the longest leading
+        run of ``wires`` (general transport messages as received on ``link`` from
+        ``peer``, one each) that only passes through, without decoding them.
+
+        Returns how many it took (the caller hands the rest, in order, to
+        :meth:`receive`), the actions for them (:class:`ForwardWires`, or what the
+        queues of a busy or paced link let out) and whether :meth:`next_deadline` may
+        have moved (something was queued). Never raises.
+        """
+        if self._next_sweep is None or link not in self._links:
+            return 0, [], False  # the full path sets the sweep up, or counts the drop
+        decisions = self._decisions.get((link, peer))
+        if decisions is None:
+            decisions = self._decisions[(link, peer)] = {}
+        seen = self._seen
+        seen_order = self._seen_order
+        if seen_order and seen_order[0][0] <= now:
+            self._expire_duplicates(now, 64)  # as receive(): a little per call
+        expiry = now + self.config.duplicate_window
+        max_duplicates = self.config.max_duplicates
+        unpack = HEADER.unpack_from
+        groups: dict[tuple[str, Peer | None], list[bytes]] = {}
+        group: list[bytes] = []
+        last_src = last_dst = -1
+        taken = 0
+        full = 0
+        try:
+            for wire in wires:
+                type_hc, length, flags, dst, src = unpack(wire)
+                if length != len(wire) or flags & _ACK_BITS or type_hc & 0xC0 or \
+                        length < MIN_DATA_SIZE:
+                    break  # ACK/NAK, header compression, malformed: the full path
+                if src != last_src or dst != last_dst:
+                    found = decisions.get((src, dst), _UNDECIDED)
+                    if found is _UNDECIDED:
+                        found = decisions[(src, dst)] = self._decide(link, peer, src, dst)
+                    if found is None:
+                        break
+                    decision: _Decision = found  # type: ignore[assignment]
+                    decision[0].seen = now  # the source's route, as receive() does
+                    group = groups.setdefault(decision[1:], [])
+                    last_src, last_dst = src, dst
+                key = hash((flags & 0xC0, wire[4:]))
+                until = seen.get(key)
+                if until is not None and until > now:
+                    break  # a duplicate: the full path counts it
+                if len(seen) < max_duplicates:
+                    seen[key] = expiry
+                    seen_order.append((expiry, key))
+                else:
+                    full += 1
+                group.append(wire)
+                taken += 1
+        except struct_error:  # too short to unpack: the full path says why
+            pass
+        if not taken:
+            return 0, [], False
+        counters = self.counters
+        counters["received"] += taken
+        counters["forwarded"] += taken
+        if full:
+            counters["duplicate table full"] += full
+        actions: list[Action] = []
+        queued = False
+        for (target, target_peer), batch in groups.items():
+            if not batch:
+                continue
+            state = self._links[target]
+            if not state.busy and not state.queued_bytes and not state.latest_wins and \
+                    max(map(len, batch)) - MIN_DATA_SIZE <= state.mtu:
+                rate = state.bandwidth_bps
+                if rate is None or self._within_budget(
+                        state, [w[3] & 3 for w in batch],
+                        [len(w) - MIN_DATA_SIZE for w in batch], now, rate):
+                    state.sent += len(batch)
+                    actions.append(ForwardWires(target, target_peer, tuple(batch)))
+                    continue
+            # what the queues decide: exactly as for the same packets on the full path
+            self._queue(actions, target, target_peer, list(map(packet_from_wire, batch)), now)
+            queued = True
+        return taken, actions, queued
+
+    def _decide(self, link: str, peer: Peer, src: int, dst: int
+                ) -> _Decision | None:
+        """Where :meth:`receive` sends a packet from ``src`` to ``dst`` that arrived on
+        ``link`` from ``peer``, if all it does is forward it unchanged and learn nothing
+        new (the source's route is already this one); else None."""
+        source = ADDRESSES.get(src) or address_from_id(src)
+        dest = ADDRESSES.get(dst) or address_from_id(dst)
+        local = self._local
+        if source in local or dest in local or source.is_broadcast or dest.is_broadcast:
+            return None
+        source_route = self._learned.get(source)
+        if source_route is None or source_route.link != link or source_route.peer != peer:
+            return None
+        route = self._learned.get(dest) or self._static_hits.get(dest) or self.lookup(dest)
+        if route is None or route.link == link or route.link not in self._links or \
+                (link, route.link) not in self._relay:
+            return None
+        return source_route, route.link, route.peer
 
     # -- input from local components -----------------------------------------------------
     def send(self, packet: Packet, now: float, *, ack: bool = False,
@@ -580,6 +734,8 @@ class Router:
             self._next_sweep = now + (0.01 if more else self.config.sweep_interval)
             limit = now - self.config.peer_timeout
             stale = [a for a, r in self._learned.items() if r.seen < limit]
+            if stale:
+                self._decisions.clear()
             for address in stale:
                 del self._learned[address]
                 log.info("forgot %s: silent for %.0f s", address, self.config.peer_timeout)
@@ -700,8 +856,8 @@ class Router:
                 state.sent += len(packets)
                 actions.append(_send_packets(link, peer, tuple(packets)))
                 return
-            if not state.latest_wins and self._within_budget(state, packets, sizes, now,
-                                                             rate):
+            if not state.latest_wins and self._within_budget(
+                    state, [p.priority & 3 for p in packets], sizes, now, rate):
                 state.sent += len(packets)
                 actions.append(_send_packets(link, peer, tuple(packets)))
                 return
@@ -722,17 +878,15 @@ class Router:
         self._drain(state, now, actions)
 
     @staticmethod
-    def _within_budget(state: _LinkState, packets: Sequence[Packet], sizes: list[int],
+    def _within_budget(state: _LinkState, priorities: list[int], sizes: list[int],
                        now: float, rate: float) -> bool:
         """Charge ``packets`` to an idle paced link's budget if the queue would let them
         all leave now, in this order (one priority, the budget not spent before the
         last, no more than the queue holds): then they skip the queue, which would change
         nothing but the cost."""
         state.refill(now, rate)
-        priority = packets[0].priority & 3
-        for p in packets:
-            if (p.priority & 3) != priority:
-                return False
+        if priorities.count(priorities[0]) != len(priorities):
+            return False
         overhead = 14 + state.overhead
         total = sum(sizes) + overhead * len(sizes)
         last = sizes[-1] + overhead
@@ -803,6 +957,18 @@ def _ack(packet: Packet) -> Packet:
         destination=packet.source, source=packet.destination, payload=b"",
         sequence=packet.sequence, priority=packet.priority, ack_nak=AckNak.ACK,
     )
+
+
+def _duplicate_key(packet: Packet) -> int:
+    """The duplicate table's key of a packet not decoded from the wire (the key of one
+    that was is the same, computed inline from ``packet.wire``): its data flags and its
+    message bytes from the destination on (addresses, payload, sequence number)."""
+    try:
+        wire = encode_packet(packet)
+    except EncodeError:
+        return hash((packet.data_flags, packet.destination.id, packet.source.id,
+                     packet.sequence, packet.payload))
+    return hash((wire[3] & 0xC0, wire[4:]))
 
 
 def _wildcards(address: JausAddress) -> int:
