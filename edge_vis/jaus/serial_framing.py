@@ -129,22 +129,27 @@ def frame(packet: Packet) -> bytes:
                      _TAIL[crc & 0xFF]))
 
 
-def frame_wires(messages: Iterable[bytes]) -> list[bytes]:
+#: pieces :func:`frame_parts` makes of each frame
+FRAME_PARTS = 5
+
+
+def frame_parts(messages: Iterable[bytes]) -> list[bytes]:
     """The frames of general transport messages given as their bytes (``Packet.wire``,
-    or what :func:`~edge_vis.jaus.transport.encode_packet` returns): :func:`frame` for a
-    batch, without a call per message; byte for byte the same frames."""
+    or what :func:`~edge_vis.jaus.transport.encode_packet` returns), as one list of
+    pieces, :data:`FRAME_PARTS` per frame: ``b"".join`` of a frame's pieces is
+    :func:`frame` of it, byte for byte; of the whole list, every frame in order (one
+    write for a batch, without a call or a join per message)."""
     heads = _HEADS
     rev = _REVERSED
     tail = _TAIL
     end = _END
     dle, dle2 = _DLE, _DLE2
-    join = b"".join
-    out = []
+    out: list[bytes] = []
+    extend = out.extend
     for message in messages:
         start, register = heads.get(len(message)) or _framed_head(len(message))
         crc = crc_hqx(message.translate(rev), register)
-        out.append(join((start, message.replace(dle, dle2), end, tail[crc >> 8],
-                         tail[crc & 0xFF])))
+        extend((start, message.replace(dle, dle2), end, tail[crc >> 8], tail[crc & 0xFF]))
     return out
 
 

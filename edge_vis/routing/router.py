@@ -41,9 +41,10 @@ on the full path, and what leaves is :class:`ForwardWires`, the same bytes.
 *Duplicates* (redundant paths, radio retries) are dropped when ``(source, destination,
 sequence, data flags, payload)`` was seen within ``duplicate_window`` s; a duplicate that asks
 for an ACK is ACKed again, since our first ACK was evidently lost. The table keeps one
-64-bit hash of that tuple per packet (two different packets sharing it within the window
-is a chance of about 1 in 10^10 at 65,536 entries; the payload hash is salted per process,
-so it cannot be provoked from outside). After a burst, once the table is down to an eighth
+64-bit hash of those fields per packet, taken over the packet's bytes from the destination
+on, plus the data flags (two different packets sharing it within the window is a chance
+of about 1 in 10^10 at 65,536 entries; the hash of bytes is salted per process, so it
+cannot be provoked from outside). After a burst, once the table is down to an eighth
 of its size, it is rebuilt small (:attr:`Router.compactions` counts it, so that the shell
 can hand the freed memory back to the system).
 
@@ -178,6 +179,22 @@ def _send_packets(link: str, peer: Peer | None, packets: tuple[Packet, ...],
     return _NewSend(link, peer, packets, urgent)  # type: ignore[return-value]
 
 
+class _NewWires:
+    """:class:`ForwardWires` built as :class:`_NewSend` builds :class:`SendPackets`."""
+
+    __slots__ = ForwardWires.__slots__  # type: ignore[attr-defined]
+
+    def __init__(self, link: str, peer: Peer | None, wires: tuple[bytes, ...]) -> None:
+        self.link = link
+        self.peer = peer
+        self.wires = wires
+        self.__class__ = ForwardWires  # type: ignore[assignment]
+
+
+def _forward_wires(link: str, peer: Peer | None, wires: tuple[bytes, ...]) -> ForwardWires:
+    return _NewWires(link, peer, wires)  # type: ignore[return-value]
+
+
 # -- configuration and state -----------------------------------------------------------
 @dataclass(frozen=True, slots=True)
 class RouterConfig:
@@ -283,7 +300,8 @@ class Router:
         self._learned: dict[JausAddress, Route] = {}
         self._static: list[tuple[JausAddress, Route]] = []
         self._seen: dict[int, float] = {}
-        self._seen_order: deque[tuple[float, int]] = deque()
+        # the keys each call added, with their common expiry, oldest first
+        self._seen_order: deque[tuple[float, list[int]]] = deque()
         self._seen_peak = 0
         #: times the duplicate table was rebuilt small after a burst
         self.compactions = 0
@@ -422,18 +440,19 @@ class Router:
         fast_source: JausAddress | None = None
         fast_dest: JausAddress | None = None
         fast_batch: list[Packet] = []
+        added: list[int] = []  # keys entered in the duplicate table
         for packet in packets:
             source = packet.source
             dest = packet.destination
             if source is fast_source and dest is fast_dest and not packet.ack_nak:
                 wire = packet.wire
-                key = hash((wire[3] & 0xC0, wire[4:])) if wire is not None else \
+                key = hash(wire[4:]) + (wire[3] >> 6) if wire is not None else \
                     _duplicate_key(packet)
                 until = seen.get(key)
                 if until is None or until <= now:
                     if len(seen) < max_duplicates:
                         seen[key] = expiry
-                        seen_order.append((expiry, key))
+                        added.append(key)
                     else:
                         counters["duplicate table full"] += 1
                     fast_batch.append(packet)
@@ -442,7 +461,7 @@ class Router:
                 counters["dropped: own source"] += 1
                 continue
             wire = packet.wire
-            key = hash((wire[3] & 0xC0, wire[4:])) if wire is not None else \
+            key = hash(wire[4:]) + (wire[3] >> 6) if wire is not None else \
                 _duplicate_key(packet)
             route = learned.get(source)
             until = seen.get(key)
@@ -456,7 +475,7 @@ class Router:
                 continue
             if len(seen) < max_duplicates:
                 seen[key] = expiry
-                seen_order.append((expiry, key))
+                added.append(key)
             else:
                 counters["duplicate table full"] += 1
             if not source.is_broadcast:
@@ -502,6 +521,8 @@ class Router:
                 counters["dropped: no route"] += 1
             for target in targets:
                 out.setdefault((target, None), []).append(packet)
+        if added:
+            seen_order.append((expiry, added))
         for (target, target_peer), batch in out.items():
             counters["forwarded"] += len(batch)
             self._queue(actions, target, target_peer, batch, now)
@@ -524,24 +545,30 @@ class Router:
         if decisions is None:
             decisions = self._decisions[(link, peer)] = {}
         seen = self._seen
+        if len(seen) + len(wires) > self.config.max_duplicates:
+            return 0, [], False  # the full path counts what the table cannot hold
         seen_order = self._seen_order
         if seen_order and seen_order[0][0] <= now:
             self._expire_duplicates(now, 64)  # as receive(): a little per call
         expiry = now + self.config.duplicate_window
-        max_duplicates = self.config.max_duplicates
         unpack = HEADER.unpack_from
+        added: list[int] = []  # the duplicate table's new keys, one per message taken
         groups: dict[tuple[str, Peer | None], list[bytes]] = {}
         group: list[bytes] = []
-        last_src = last_dst = -1
-        taken = 0
-        full = 0
+        last_src = last_dst = last_flags = priority = -1
+        one_priority = True
         try:
             for wire in wires:
                 type_hc, length, flags, dst, src = unpack(wire)
-                if length != len(wire) or flags & _ACK_BITS or type_hc & 0xC0 or \
-                        length < MIN_DATA_SIZE:
-                    break  # ACK/NAK, header compression, malformed: the full path
-                if src != last_src or dst != last_dst:
+                if length != len(wire) or type_hc & 0xC0 or length < MIN_DATA_SIZE:
+                    break  # header compression, malformed: the full path
+                if src != last_src or dst != last_dst or flags != last_flags:
+                    if flags & _ACK_BITS:
+                        break  # ACK/NAK: the full path
+                    if priority < 0:
+                        priority = flags & 3
+                    elif flags & 3 != priority:
+                        one_priority = False
                     found = decisions.get((src, dst), _UNDECIDED)
                     if found is _UNDECIDED:
                         found = decisions[(src, dst)] = self._decide(link, peer, src, dst)
@@ -550,42 +577,50 @@ class Router:
                     decision: _Decision = found  # type: ignore[assignment]
                     decision[0].seen = now  # the source's route, as receive() does
                     group = groups.setdefault(decision[1:], [])
-                    last_src, last_dst = src, dst
-                key = hash((flags & 0xC0, wire[4:]))
+                    last_src, last_dst, last_flags = src, dst, flags
+                key = hash(wire[4:]) + (flags >> 6)  # as receive()
                 until = seen.get(key)
                 if until is not None and until > now:
                     break  # a duplicate: the full path counts it
-                if len(seen) < max_duplicates:
-                    seen[key] = expiry
-                    seen_order.append((expiry, key))
-                else:
-                    full += 1
+                seen[key] = expiry
+                added.append(key)
                 group.append(wire)
-                taken += 1
         except struct_error:  # too short to unpack: the full path says why
             pass
+        taken = len(added)
         if not taken:
             return 0, [], False
+        seen_order.append((expiry, added))
         counters = self.counters
         counters["received"] += taken
         counters["forwarded"] += taken
-        if full:
-            counters["duplicate table full"] += full
         actions: list[Action] = []
         queued = False
+        links = self._links
         for (target, target_peer), batch in groups.items():
             if not batch:
                 continue
-            state = self._links[target]
+            state = links[target]
             if not state.busy and not state.queued_bytes and not state.latest_wins and \
                     max(map(len, batch)) - MIN_DATA_SIZE <= state.mtu:
                 rate = state.bandwidth_bps
-                if rate is None or self._within_budget(
-                        state, [w[3] & 3 for w in batch],
-                        [len(w) - MIN_DATA_SIZE for w in batch], now, rate):
+                if rate is None:
                     state.sent += len(batch)
-                    actions.append(ForwardWires(target, target_peer, tuple(batch)))
+                    actions.append(_forward_wires(target, target_peer, tuple(batch)))
                     continue
+                if one_priority:  # Router._within_budget, on the bytes
+                    if state.refilled is not None:
+                        state.tokens = min(state.burst,
+                                           state.tokens + (now - state.refilled) * rate / 8)
+                    state.refilled = now
+                    overhead = state.overhead
+                    total = sum(map(len, batch)) + overhead * len(batch)
+                    if total <= state.queue_limit and \
+                            state.tokens - (total - len(batch[-1]) - overhead) >= -1e-9:
+                        state.tokens -= total
+                        state.sent += len(batch)
+                        actions.append(_forward_wires(target, target_peer, tuple(batch)))
+                        continue
             # what the queues decide: exactly as for the same packets on the full path
             self._queue(actions, target, target_peer, list(map(packet_from_wire, batch)), now)
             queued = True
@@ -805,19 +840,21 @@ class Router:
             self.counters["naks received"] += 1
 
     def _expire_duplicates(self, now: float, limit: int) -> bool:
-        """Forget up to ``limit`` expired entries; True when more are due.
+        """Forget about ``limit`` expired entries (those of whole calls, oldest first);
+        True when more are due.
 
         Entries are also checked against ``now`` when looked up, so forgetting late
         is harmless; it only bounds memory.
         """
         order = self._seen_order
         seen = self._seen
-        for _ in range(limit):
-            if not order or order[0][0] > now:
-                return False
-            expiry, key = order.popleft()
-            if seen.get(key) == expiry:
-                del seen[key]
+        get = seen.get
+        while limit > 0 and order and order[0][0] <= now:
+            expiry, keys = order.popleft()
+            for key in keys:
+                if get(key) == expiry:
+                    del seen[key]
+            limit -= len(keys)
         return bool(order) and order[0][0] <= now
 
     def _compact_duplicates(self) -> None:
@@ -968,7 +1005,7 @@ def _duplicate_key(packet: Packet) -> int:
     except EncodeError:
         return hash((packet.data_flags, packet.destination.id, packet.source.id,
                      packet.sequence, packet.payload))
-    return hash((wire[3] & 0xC0, wire[4:]))
+    return hash(wire[4:]) + (wire[3] >> 6)
 
 
 def _wildcards(address: JausAddress) -> int:
