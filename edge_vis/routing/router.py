@@ -32,11 +32,12 @@ building a :class:`~edge_vis.jaus.transport.Packet`: the header fields it needs 
 from the bytes, the duplicate check is the same table's, and the route comes from a
 cache of the full path's decisions per ``(link, peer, source, destination)``, emptied
 whenever anything those decisions read changes (the address book, static routes, relay
-switches, local components, links). It takes the longest leading run that the full path
-would have forwarded unchanged (no ACK/NAK, no local or broadcast address, a route
-already learned, the source's route unchanged) and leaves the rest to
-:meth:`Router.receive`, in order; counters and the links' budgets and queues come out as
-on the full path, and what leaves is :class:`ForwardWires`, the same bytes.
+switches, local components, links). It takes a batch only if the full path would have
+forwarded every message of it unchanged (no ACK/NAK, no local or broadcast address, a
+route already learned, the source's route unchanged, no duplicate), else none of it
+(:meth:`Router.receive` then handles the batch); counters, the duplicate table and the
+links' budgets and queues come out as on the full path, and what leaves is
+:class:`ForwardWires`, the same bytes in the same order.
 
 *Duplicates* (redundant paths, radio retries) are dropped when ``(source, destination,
 sequence, data flags, payload)`` was seen within ``duplicate_window`` s; a duplicate that asks
@@ -530,14 +531,15 @@ class Router:
 
     def forward(self, link: str, peer: Peer, wires: Sequence[bytes], now: float
                 ) -> tuple[int, list[Action], bool]:
-        """The pass-through path (see the module docstring): route the longest leading
-        run of ``wires`` (general transport messages as received on ``link`` from
-        ``peer``, one each) that only passes through, without decoding them.
+        """The pass-through path (see the module docstring): route ``wires`` (general
+        transport messages as received on ``link`` from ``peer``, one each) without
+        decoding them, if every one of them only passes through.
 
-        Returns how many it took (the caller hands the rest, in order, to
-        :meth:`receive`), the actions for them (:class:`ForwardWires`, or what the
-        queues of a busy or paced link let out) and whether :meth:`next_deadline` may
-        have moved (something was queued). Never raises.
+        Returns how many it took: all or none (then the caller hands them, decoded, to
+        :meth:`receive`, which decides exactly as if this had not been called); the
+        actions (:class:`ForwardWires`, or what the queues of a busy or paced link let
+        out); and whether :meth:`next_deadline` may have moved (something was queued).
+        Never raises.
         """
         if self._next_sweep is None or link not in self._links:
             return 0, [], False  # the full path sets the sweep up, or counts the drop
@@ -588,7 +590,11 @@ class Router:
         except struct_error:  # too short to unpack: the full path says why
             pass
         taken = len(added)
-        if not taken:
+        if taken != len(wires):
+            # all or nothing: the full path batches by destination over the whole call,
+            # which a split would reorder on a shared medium; what was entered goes
+            for key in added:
+                del seen[key]
             return 0, [], False
         seen_order.append((expiry, added))
         counters = self.counters

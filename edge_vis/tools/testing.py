@@ -130,11 +130,15 @@ class RouterNode:
     from the links into the router with the loop's clock as ``now``, carries out the
     actions, and keeps the router's timer armed. Delivered messages are put on
     :attr:`delivered` (an :class:`asyncio.Queue` of :class:`~edge_vis.routing.router.Deliver`),
-    failures on :attr:`failures`. Used by tests, benches and demos.
+    failures on :attr:`failures`. Used by tests, benches and demos. ``pass_through=False``
+    leaves the router's pass-through path unused (every packet decoded and routed by
+    :meth:`~edge_vis.routing.router.Router.receive`), to compare the two.
     """
 
-    def __init__(self, router: Router, links: Sequence[Link]) -> None:
+    def __init__(self, router: Router, links: Sequence[Link], *, pass_through: bool = True
+                 ) -> None:
         self.router = router
+        self.pass_through = pass_through
         self.links = {link.name: link for link in links}
         self.delivered: asyncio.Queue[Deliver] = asyncio.Queue()
         self.failures: list[DeliveryFailed] = []
@@ -148,7 +152,8 @@ class RouterNode:
         for link in self.links.values():
             self.router.add_link(link.name, mtu=link.mtu, bandwidth_bps=link.bandwidth_bps,
                                  overhead=link.overhead)
-            await link.open(self._received, pass_through=self._pass_through)
+            await link.open(self._received,
+                            pass_through=self._pass_through if self.pass_through else None)
 
     async def stop(self) -> None:
         """Close every link and stop the timer."""
