@@ -3,7 +3,6 @@ sans-I/O core meet. Performs I/O.
 
 One event loop drives everything::
 
-    link pass_through(name, peer, wires) ─► Router.forward ─► ForwardWires ─► Link.send_wires
     link deliver(name, peer, packets) ─► Router.receive ─► SendPackets ─► Link.send
                                                         └► Deliver ─► Catalogue.decode
                                                                        ─► Engine.receive_message
@@ -53,14 +52,7 @@ from edge_vis.kit.actions import (
 )
 from edge_vis.routing.accounting import Kind, LogLimiter, Tally, losses, tallies_of, totals
 from edge_vis.routing.link import Link, Peer, create_link
-from edge_vis.routing.router import (
-    Deliver,
-    DeliveryFailed,
-    ForwardWires,
-    Router,
-    RouterConfig,
-    SendPackets,
-)
+from edge_vis.routing.router import Deliver, DeliveryFailed, Router, RouterConfig, SendPackets
 from edge_vis.routing.traffic import priority_for
 from edge_vis.shell.memory import release_memory
 from edge_vis.shell.sharedloop import on_loop_thread
@@ -173,7 +165,7 @@ class Runtime:
         link: Link = create_link(url, name=name)
         if self._mirror is not None:
             self._mirror.attach(link)
-        await link.open(self._on_packets, self._on_link_state, pass_through=self._on_wires)
+        await link.open(self._on_packets, self._on_link_state)
         self.links[name] = link
         spec = self._spec(name)
         if spec is not None and spec.limited:
@@ -337,18 +329,6 @@ class Runtime:
         self._carry_router(actions, now)
         self._pump_engine(now)
 
-    def _on_wires(self, link: str, peer: Peer, wires: list[bytes]) -> int:
-        """Messages that only pass through (the router's pass-through path): forwarded as
-        the bytes they came in; returns how many it took (the rest go to _on_packets)."""
-        assert self._loop is not None
-        now = self._loop.time()
-        taken, actions, queued = self.router.forward(link, peer, wires, now)
-        if actions:
-            self._carry_router(actions, now)
-        if queued:
-            self._rearm(now)
-        return taken
-
     def _on_sample(self, topic: str, sample: dict[str, Any]) -> None:
         assert self._loop is not None and self.engine is not None
         now = self._loop.time()
@@ -422,13 +402,7 @@ class Runtime:
     def _carry_router(self, actions: Iterable[object], now: float) -> None:
         engine = self.engine
         for action in actions:
-            if isinstance(action, ForwardWires):
-                link = self.links.get(action.link)
-                if link is None:
-                    self.counters["send to unknown link"] += 1
-                    continue
-                link.send_wires(action.wires, action.peer)
-            elif isinstance(action, SendPackets):
+            if isinstance(action, SendPackets):
                 link = self.links.get(action.link)
                 if link is None:
                     self.counters["send to unknown link"] += 1

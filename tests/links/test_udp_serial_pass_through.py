@@ -148,3 +148,59 @@ def test_frame_parts_are_frame_byte_for_byte() -> None:
     parts = frame_parts([encode_packet(p) for p in packets])
     assert b"".join(parts) == b"".join(frame(p) for p in packets)
     assert [b"".join(parts[i:i + 5]) for i in range(0, len(parts), 5)] == list(map(frame, packets))
+
+
+async def relay_udp(bursts: list[list[bytes]], pass_through: bool
+                    ) -> tuple[list[bytes], dict[str, Any]]:
+    """The same traffic relayed UDP -> UDP: the datagrams the next hop receives."""
+    port = free_port((HOST, SENDER, "127.0.0.4"))
+    sink = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sink.bind(("127.0.0.4", 0))
+    sink.setblocking(False)
+    node = RouterNode(Router([RELAY]), [
+        create_link(f"udp://{HOST}:{port}?multicast=off", name="lan"),
+        create_link(f"udp://127.0.0.4:{port}?multicast=off", name="far"),
+    ], pass_through=pass_through)
+    await node.start()
+    node.router.set_relay("lan", "far")
+    node.router.add_route(VEHICLE, "far", sink.getsockname())
+    tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    tx.bind((SENDER, 0))
+    received: list[bytes] = []
+
+    def drain() -> None:
+        while True:
+            try:
+                received.append(sink.recv(65535))
+            except BlockingIOError:
+                return
+
+    try:
+        tx.sendto(pack_datagram([msg(OPERATOR, RELAY, b"", sequence=60000)]), (HOST, port))
+        await until(lambda: node.router.stats().counters.get("received", 0) >= 1)
+        for burst in bursts:
+            for datagram in burst:
+                tx.sendto(datagram, (HOST, port))
+            await asyncio.sleep(0.003)
+            drain()
+        await asyncio.sleep(0.2)
+        drain()
+        stats = {name: link.stats().as_dict() for name, link in node.links.items()}
+        stats["router"] = node.router.stats().counters
+    finally:
+        tx.close()
+        sink.close()
+        await node.stop()
+    return received, stats
+
+
+def test_pass_through_to_udp_sends_the_full_paths_datagrams() -> None:
+    bursts = traffic(7)
+    full_out, full = run(relay_udp(bursts, pass_through=False))
+    fast_out, fast = run(relay_udp(bursts, pass_through=True))
+    assert len(full_out) > 100
+    assert fast_out == full_out
+    for name in ("lan", "far"):
+        for key in ("bytes_in", "bytes_out", "messages_in", "messages_out", "malformed"):
+            assert fast[name][key] == full[name][key], (name, key)
+    assert fast["router"] == full["router"]
