@@ -476,9 +476,9 @@ class UdpLink(Link):
         peer: tuple[str, int] | None = None
         version = JUDP_VERSION
         count = 0
+        if sock is None:
+            return 0
         while count < READ_BATCH:
-            if sock is None or self._sock is None:
-                break
             try:
                 size, addr = sock.recvfrom_into(buffer)
             except BlockingIOError:
@@ -493,9 +493,13 @@ class UdpLink(Link):
                 if wires:
                     self._offer(peer, wires)  # type: ignore[arg-type]
                     wires = []
+                    if self._sock is None:  # closed by what the datagrams caused
+                        return count
                 peer = addr
                 if size <= MIN_DATA_SIZE or buffer[0] != version:  # the full path says why
                     self._one(addr, buffer, size)
+                    if self._sock is None:
+                        return count
                     continue
             wires.append(bytes(buffer[1:size]))
         if wires:

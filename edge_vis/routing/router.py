@@ -79,7 +79,6 @@ import logging
 from collections import Counter, deque
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
-from struct import error as struct_error
 
 from edge_vis.errors import EncodeError, LocalProtocolError
 from edge_vis.jaus.address import ADDRESSES, JausAddress, address_from_id
@@ -541,7 +540,8 @@ class Router:
         out); and whether :meth:`next_deadline` may have moved (something was queued).
         Never raises.
         """
-        if self._next_sweep is None or link not in self._links:
+        if self._next_sweep is None or link not in self._links or not wires or \
+                min(map(len, wires)) < MIN_DATA_SIZE:
             return 0, [], False  # the full path sets the sweep up, or counts the drop
         decisions = self._decisions.get((link, peer))
         if decisions is None:
@@ -555,40 +555,39 @@ class Router:
         expiry = now + self.config.duplicate_window
         unpack = HEADER.unpack_from
         added: list[int] = []  # the duplicate table's new keys, one per message taken
-        groups: dict[tuple[str, Peer | None], list[bytes]] = {}
-        group: list[bytes] = []
+        target: tuple[str, Peer | None] | None = None  # where the first message goes
+        several = False  # the messages go to several (link, peer)
         last_src = last_dst = last_flags = priority = -1
         one_priority = True
-        try:
-            for wire in wires:
-                type_hc, length, flags, dst, src = unpack(wire)
-                if length != len(wire) or type_hc & 0xC0 or length < MIN_DATA_SIZE:
-                    break  # header compression, malformed: the full path
-                if src != last_src or dst != last_dst or flags != last_flags:
-                    if flags & _ACK_BITS:
-                        break  # ACK/NAK: the full path
-                    if priority < 0:
-                        priority = flags & 3
-                    elif flags & 3 != priority:
-                        one_priority = False
-                    found = decisions.get((src, dst), _UNDECIDED)
-                    if found is _UNDECIDED:
-                        found = decisions[(src, dst)] = self._decide(link, peer, src, dst)
-                    if found is None:
-                        break
-                    decision: _Decision = found  # type: ignore[assignment]
-                    decision[0].seen = now  # the source's route, as receive() does
-                    group = groups.setdefault(decision[1:], [])
-                    last_src, last_dst, last_flags = src, dst, flags
-                key = hash(wire[4:]) + (flags >> 6)  # as receive()
-                until = seen.get(key)
-                if until is not None and until > now:
-                    break  # a duplicate: the full path counts it
-                seen[key] = expiry
-                added.append(key)
-                group.append(wire)
-        except struct_error:  # too short to unpack: the full path says why
-            pass
+        for wire in wires:
+            type_hc, length, flags, dst, src = unpack(wire)
+            if length != len(wire) or type_hc & 0xC0:
+                break  # header compression, malformed: the full path
+            if src != last_src or dst != last_dst or flags != last_flags:
+                if flags & _ACK_BITS:
+                    break  # ACK/NAK: the full path
+                if priority < 0:
+                    priority = flags & 3
+                elif flags & 3 != priority:
+                    one_priority = False
+                found = decisions.get((src, dst), _UNDECIDED)
+                if found is _UNDECIDED:
+                    found = decisions[(src, dst)] = self._decide(link, peer, src, dst)
+                if found is None:
+                    break
+                decision: _Decision = found  # type: ignore[assignment]
+                decision[0].seen = now  # the source's route, as receive() does
+                if target is None:
+                    target = decision[1:]
+                elif decision[1:] != target:
+                    several = True
+                last_src, last_dst, last_flags = src, dst, flags
+            key = hash(wire[4:]) + (flags >> 6)  # as receive()
+            until = seen.get(key)
+            if until is not None and until > now:
+                break  # a duplicate: the full path counts it
+            seen[key] = expiry
+            added.append(key)
         taken = len(added)
         if taken != len(wires):
             # all or nothing: the full path batches by destination over the whole call,
@@ -597,22 +596,29 @@ class Router:
                 del seen[key]
             return 0, [], False
         seen_order.append((expiry, added))
+        assert target is not None
+        groups: dict[tuple[str, Peer | None], Sequence[bytes]] = {target: wires}
+        if several:  # one batch per (link, peer), in order, as receive() makes them
+            groups = {}
+            for wire in wires:
+                _, _, _, dst, src = unpack(wire)
+                found = decisions[(src, dst)]
+                assert found is not None
+                groups.setdefault(found[1:], []).append(wire)  # type: ignore[attr-defined]
         counters = self.counters
         counters["received"] += taken
         counters["forwarded"] += taken
         actions: list[Action] = []
         queued = False
         links = self._links
-        for (target, target_peer), batch in groups.items():
-            if not batch:
-                continue
-            state = links[target]
+        for (target_link, target_peer), batch in groups.items():
+            state = links[target_link]
             if not state.busy and not state.queued_bytes and not state.latest_wins and \
                     max(map(len, batch)) - MIN_DATA_SIZE <= state.mtu:
                 rate = state.bandwidth_bps
                 if rate is None:
                     state.sent += len(batch)
-                    actions.append(_forward_wires(target, target_peer, tuple(batch)))
+                    actions.append(_forward_wires(target_link, target_peer, tuple(batch)))
                     continue
                 if one_priority:  # Router._within_budget, on the bytes
                     if state.refilled is not None:
@@ -625,10 +631,11 @@ class Router:
                             state.tokens - (total - len(batch[-1]) - overhead) >= -1e-9:
                         state.tokens -= total
                         state.sent += len(batch)
-                        actions.append(_forward_wires(target, target_peer, tuple(batch)))
+                        actions.append(_forward_wires(target_link, target_peer, tuple(batch)))
                         continue
             # what the queues decide: exactly as for the same packets on the full path
-            self._queue(actions, target, target_peer, list(map(packet_from_wire, batch)), now)
+            self._queue(actions, target_link, target_peer, list(map(packet_from_wire, batch)),
+                        now)
             queued = True
         return taken, actions, queued
 
