@@ -1,6 +1,9 @@
 """Bulk image transfer over UDT: goodput on loopback, through a lossy radio, and resume time.
 
-Run: ``.venv/bin/python bench/bulk.py [--quick]``. Prints a table; asserts nothing.
+Run: ``.venv/bin/python bench/bulk.py [--quick] [--only ROWS] [--repeat N]``. Prints a
+table; asserts nothing. ``--only`` runs some rows (comma-separated: ``loopback``,
+``fixed`` = one connection and six lanes, ``adaptive`` = no flags, ``budget``,
+``forwarder``, ``pull``, ``resume``); ``--repeat`` runs each radio row that many times.
 
 * ``loopback``: files of 1 MiB and 50 MiB sent to a receiver on 127.0.0.1, timed from the
   first byte of the manifest to the receipt confirming the SHA-256 (the sender's hash is
@@ -19,8 +22,8 @@ Run: ``.venv/bin/python bench/bulk.py [--quick]``. Prints a table; asserts nothi
   start and the last segment's tail included). One connection gets a 4 MiB file (its
   rate does not depend on the size and a bigger one takes minutes).
 * ``forwarder``: a relay (``ImageService`` with ``forward``) passes a file on to an
-  operator-side receiver through the same lossy proxy, adaptive lanes, no flags; timed
-  from the relay's verification to the operator's.
+  operator-side receiver through the same proxy, with 2 % loss and with none, adaptive
+  lanes, no flags; timed from the relay's verification to the operator's.
 * ``pull``: the relay fetches an announced image from a vehicle's image server
   (``serve-images``) through the same lossy proxy, no flags (lanes paced by the image
   server); timed from the announcement to the relay's verification, the file size of
@@ -34,6 +37,7 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import itertools
 import logging
 import random
 import statistics
@@ -48,6 +52,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from lossy_proxy import separate_process
 
 from links.udt import UdtBulkChannel
+
+_RUN = itertools.count()
+"""Each run's own folders and files: a repeated row must not find the last one's spool."""
 
 
 def _file(folder: Path, size: int, name: str) -> tuple[Path, object]:
@@ -104,8 +111,9 @@ def loopback(folder: Path, size: int, runs: int, warm: bool) -> tuple[float, flo
 def radio(folder: Path, size: int, loss: float, lanes: int, max_rate: int | None
           ) -> tuple[float, dict, list]:
     """Goodput (Mbit/s), the proxy's counters and the rate probe's course."""
-    path, manifest = _file(folder, size, f"radio{lanes}{loss}{max_rate}.bin")
-    with UdtBulkChannel.ImageService(folder / f"radio{lanes}{loss}{max_rate}") as svc, \
+    run = next(_RUN)
+    path, manifest = _file(folder, size, f"radio{lanes}{loss}{max_rate}-{run}.bin")
+    with UdtBulkChannel.ImageService(folder / f"radio{lanes}{loss}{max_rate}-{run}") as svc, \
             separate_process(svc.address, loss=loss, delay=0.020, rate_bps=10e6,
                              queue_bytes=64 * 1024, seed=1, lifetime=600) as (address, counters), \
             UdtBulkChannel.BulkSender(address, max_rate_bps=max_rate, lanes=lanes,
@@ -120,7 +128,8 @@ def radio(folder: Path, size: int, loss: float, lanes: int, max_rate: int | None
 
 def forwarded(folder: Path, size: int, loss: float) -> float:
     """Goodput (Mbit/s) of the relay's forwarder to the operator side, adaptive lanes."""
-    path, manifest = _file(folder, size, "fwd.bin")
+    run = next(_RUN)
+    path, manifest = _file(folder, size, f"fwd{run}.bin")
     marks: dict[str, float] = {}
 
     def seen(where: str) -> object:
@@ -129,11 +138,11 @@ def forwarded(folder: Path, size: int, loss: float) -> float:
                 marks[where] = time.perf_counter()
         return publish
 
-    with UdtBulkChannel.ImageService(folder / "operator", publish=seen("operator"),
+    with UdtBulkChannel.ImageService(folder / f"operator{run}", publish=seen("operator"),
                                      publish_data=False) as ops, \
             separate_process(ops.address, loss=loss, delay=0.020, rate_bps=10e6,
                              queue_bytes=64 * 1024, seed=1, lifetime=600) as (address, _c), \
-            UdtBulkChannel.ImageService(folder / "relay", forward=[address],
+            UdtBulkChannel.ImageService(folder / f"relay{run}", forward=[address],
                                         publish=seen("relay"), publish_data=False) as relay:
         result = UdtBulkChannel.send_image(path, relay.address, manifest=manifest, lanes=1)
         deadline = time.monotonic() + 180
@@ -146,7 +155,8 @@ def forwarded(folder: Path, size: int, loss: float) -> float:
 
 def pulled(folder: Path, size: int, loss: float) -> float:
     """Goodput (Mbit/s) of the relay fetching an announced image from an image server."""
-    served = folder / f"vehicle{loss}"
+    run = next(_RUN)
+    served = folder / f"vehicle{loss}-{run}"
     served.mkdir()
     content = random.Random(size).randbytes(size)
     (served / "atr-1.png").write_bytes(content)
@@ -159,7 +169,7 @@ def pulled(folder: Path, size: int, loss: float) -> float:
     with UdtBulkChannel.ImageServer(served, vehicle_id="uuv1") as server, \
             separate_process(server.address, loss=loss, delay=0.020, rate_bps=10e6,
                              queue_bytes=64 * 1024, seed=1, lifetime=600) as (address, _c), \
-            UdtBulkChannel.ImageService(folder / f"puller{loss}", publish=publish,
+            UdtBulkChannel.ImageService(folder / f"puller{loss}-{run}", publish=publish,
                                         publish_data=False,
                                         sources={"*": f"{address[0]}:{address[1]}"}) as relay:
         started = time.perf_counter()
@@ -204,10 +214,20 @@ def resume_time(folder: Path, runs: int) -> list[float]:
     return out
 
 
+ROWS = ("loopback", "fixed", "adaptive", "budget", "forwarder", "pull", "resume")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer runs, smaller lossy file")
+    parser.add_argument("--only", default=",".join(ROWS),
+                        help=f"comma-separated rows to run, of {', '.join(ROWS)} (default: all)")
+    parser.add_argument("--repeat", type=int, default=1,
+                        help="run each radio row this many times (default 1)")
     args = parser.parse_args()
+    only = set(args.only.split(","))
+    if only - set(ROWS):
+        parser.error(f"unknown rows: {', '.join(sorted(only - set(ROWS)))}")
     logging.basicConfig(level=logging.WARNING)
     runs = 2 if args.quick else 5
     radio_size = (8 << 20) if args.quick else (16 << 20)
@@ -216,34 +236,42 @@ def main() -> None:
         folder = Path(tmp)
         for size, label in ((1 << 20, "1 MiB"), (50 << 20, "50 MiB")):
             for warm in (False, True):
+                if "loopback" not in only:
+                    continue
                 mbps, median = loopback(folder, size, runs if size < (10 << 20) else 2, warm)
                 how = "open connection" if warm else "new connection"
                 rows.append((f"loopback {label}, {how}", f"{mbps:7.1f} MB/s",
                              f"best of runs; median {median * 1000:.0f} ms"))
         for loss in (0.02, 0.0):
-            for label, lanes, max_rate in (("1 connection (--lanes 1)", 1, None),
-                                           ("6 fixed lanes (--lanes 6)", 6, None),
-                                           ("adaptive (no flags)", 0, None),
-                                           ("adaptive, budget 5 Mbit/s", 0, 5_000_000)):
-                if loss == 0.0 and max_rate:
+            for label, lanes, max_rate, kind in (
+                    ("1 connection (--lanes 1)", 1, None, "fixed"),
+                    ("6 fixed lanes (--lanes 6)", 6, None, "fixed"),
+                    ("adaptive (no flags)", 0, None, "adaptive"),
+                    ("adaptive, budget 5 Mbit/s", 0, 5_000_000, "budget")):
+                if (loss == 0.0 and max_rate) or kind not in only:
                     continue
                 size = (4 << 20) if lanes == 1 and loss else radio_size
-                good, c, history = radio(folder, size, loss, lanes, max_rate)
-                steps = _paced(history) if lanes == 0 else ""
-                rows.append((f"radio 10M/{loss:.0%}/20ms, {label}", f"{good:7.2f} Mbit/s",
-                             f"{good / 10 * 100:.0f} % of link; {size >> 20} MiB; proxy lost "
-                             f"{c.get('up_lost', 0)}+{c.get('down_lost', 0)}, queue-dropped "
-                             f"{c.get('up_queue_drop', 0)}" + (f"; {steps}" if steps else "")))
-        good = forwarded(folder, radio_size, 0.02)
-        rows.append(("radio 10M/2%/20ms, relay forwarder, adaptive", f"{good:7.2f} Mbit/s",
-                     f"{good / 10 * 100:.0f} % of link; {radio_size >> 20} MiB, relay "
-                     f"verified -> operator verified"))
+                for _ in range(args.repeat):
+                    good, c, history = radio(folder, size, loss, lanes, max_rate)
+                    steps = _paced(history) if lanes == 0 else ""
+                    rows.append((f"radio 10M/{loss:.0%}/20ms, {label}", f"{good:7.2f} Mbit/s",
+                                 f"{good / 10 * 100:.1f} % of link; {size >> 20} MiB; proxy "
+                                 f"lost {c.get('up_lost', 0)}+{c.get('down_lost', 0)}, "
+                                 f"queue-dropped {c.get('up_queue_drop', 0)}"
+                                 + (f"; {steps}" if steps else "")))
         for loss in (0.02, 0.0):
-            good = pulled(folder, radio_size, loss)
-            rows.append((f"radio 10M/{loss:.0%}/20ms, relay pulls (serve-images)",
-                         f"{good:7.2f} Mbit/s", f"{good / 10 * 100:.0f} % of link; "
-                         f"{radio_size >> 20} MiB, announced -> relay verified"))
-        delays = resume_time(folder, 3 if not args.quick else 1)
+            for _ in range(args.repeat if "forwarder" in only else 0):
+                good = forwarded(folder, radio_size, loss)
+                rows.append((f"radio 10M/{loss:.0%}/20ms, relay forwarder, adaptive",
+                             f"{good:7.2f} Mbit/s", f"{good / 10 * 100:.1f} % of link; "
+                             f"{radio_size >> 20} MiB, relay verified -> operator verified"))
+        for loss in (0.02, 0.0):
+            for _ in range(args.repeat if "pull" in only else 0):
+                good = pulled(folder, radio_size, loss)
+                rows.append((f"radio 10M/{loss:.0%}/20ms, relay pulls (serve-images)",
+                             f"{good:7.2f} Mbit/s", f"{good / 10 * 100:.1f} % of link; "
+                             f"{radio_size >> 20} MiB, announced -> relay verified"))
+        delays = resume_time(folder, 3 if not args.quick else 1) if "resume" in only else []
         if delays:
             rows.append(("resume after a drop", f"{statistics.median(delays) * 1000:7.0f} ms",
                          f"median of {len(delays)}; max {max(delays) * 1000:.0f} ms"))

@@ -39,7 +39,10 @@ Parts, each in its own process so that one does not colour another's memory:
    Cyclone's included) per report.
 3. **The relay** ``edge-vis run`` with DDS and every translator: start-up to its first
    discovery query, idle CPU (``/proc/PID/stat``, 10 ms ticks) and resident memory, then
-   with three simulated UGVs (``edge-vis sim``) sending three reports each at 10 Hz.
+   with three simulated UGVs (``edge-vis sim``) sending three reports each at 10 Hz. The
+   *floor* rows: the interpreter alone, and a fresh interpreter that imports exactly the
+   modules a second, idle relay has loaded (asked for with SIGUSR1): what ``edge-vis run``
+   costs before it holds any data of its own (not with ``--bundle``).
 
 Figures, not pass/fail; the targets are printed beside them.
 """
@@ -51,6 +54,7 @@ import asyncio
 import os
 import resource
 import select
+import signal
 import socket
 import subprocess
 import sys
@@ -603,6 +607,80 @@ def engine_main(seconds: float) -> None:
 
 # -- part 3: the relay ----------------------------------------------------------------------
 
+#: runs ``edge-vis`` as usual; on SIGUSR1 writes the modules it has loaded to argv[1]
+RELAY_DUMPING_MODULES = """
+import os, signal, sys
+out = sys.argv.pop(1)
+def dump(*_):
+    names = [name for name, module in list(sys.modules.items()) if module is not None]
+    with open(out + ".part", "w") as f:
+        f.write("\\n".join(names))
+    os.replace(out + ".part", out)  # whole or not at all for the reader
+signal.signal(signal.SIGUSR1, dump)
+from edge_vis.cli import main
+sys.argv[0] = "edge-vis"
+sys.exit(main())
+"""
+
+#: a fresh interpreter, then every module in the file argv[1] imported as ``edge-vis run``
+#: imports them (asyncio and hashlib without OpenSSL); prints VmRSS in KiB before and after
+FLOOR = """
+import importlib, sys
+def rss():
+    with open("/proc/self/status") as f:
+        return next(int(l.split()[1]) for l in f if l.startswith("VmRSS:"))
+alone = rss()
+from edge_vis.shell.memory import import_without_openssl
+import_without_openssl()
+for name in open(sys.argv[1]).read().split():
+    if not name.startswith("__"):
+        try:
+            importlib.import_module(name)
+        except ImportError:  # another platform's module (nt, winreg...) tried and missed
+            pass
+print(alone, rss())
+"""
+
+
+def relay_floor(relay_cmd: Sequence[str], env: dict[str, str], listener: socket.socket,
+                tmp: str) -> tuple[float, float] | None:
+    """(interpreter alone, interpreter plus every module the idle relay has loaded), MiB.
+
+    A second relay, started as the measured one was, reports its loaded modules once it
+    is idle (first discovery query + 1 s); a fresh interpreter then imports those and
+    nothing else: what the relay would cost if it held no data of its own.
+    """
+    modules = Path(tmp, "modules.txt")
+    listener.setblocking(False)  # the measured relay's queries must not pass for this one's
+    while True:
+        try:
+            listener.recv(65536)
+        except BlockingIOError:
+            break
+    listener.setblocking(True)
+    relay = subprocess.Popen([sys.executable, "-c", RELAY_DUMPING_MODULES, str(modules),
+                              *relay_cmd[3:]], env=env, stderr=subprocess.DEVNULL)
+    try:
+        if first_discovery(listener, 10.0) is None:
+            return None
+        time.sleep(1.0)
+        relay.send_signal(signal.SIGUSR1)
+        deadline = time.monotonic() + 5.0
+        while not modules.exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+    finally:
+        relay.terminate()
+        try:
+            relay.wait(15)
+        except subprocess.TimeoutExpired:
+            relay.kill()
+            relay.wait()
+    if not modules.exists():
+        return None
+    out = subprocess.run([sys.executable, "-c", FLOOR, str(modules)], env=env,
+                         capture_output=True, text=True, check=True).stdout.split()
+    return int(out[0]) / 1024, int(out[1]) / 1024
+
 
 def relay_part(args: argparse.Namespace) -> tuple[list[tuple[str, str, str]], bool]:
     dds = not args.no_dds
@@ -672,6 +750,10 @@ def relay_part(args: argparse.Namespace) -> tuple[list[tuple[str, str, str]], bo
                 _, err = relay.communicate()
             if reader_bridge is not None:
                 reader_bridge.close()
+        try:
+            floor = (relay_floor(relay_cmd, env, listener, tmp)
+                     if alive and not args.bundle else None)
+        finally:
             listener.close()
     if not alive:
         print(err.decode(errors="replace")[-2000:], file=sys.stderr)
@@ -681,11 +763,19 @@ def relay_part(args: argparse.Namespace) -> tuple[list[tuple[str, str, str]], bo
     rows = [
         (f"{label}: start-up to first discovery query", f"{startup:.2f} s", "<= 1 s"),
         (f"{label}: CPU idle", f"{idle * 100:.2f} % of a core", "< 1 %"),
-        (f"{label}: resident memory idle", f"{idle_mem['VmRSS'] / 1024:.1f} MiB", ""),
+        (f"{label}: resident memory idle", f"{idle_mem['VmRSS'] / 1024:.1f} MiB",
+         "< 39 MiB" if dds else ""),
         (f"{label}: CPU, 3 vehicles at 10 Hz", f"{busy * 100:.2f} % of a core", "< 10 %"),
         (f"{label}: resident memory, 3 vehicles", f"{busy_mem['VmRSS'] / 1024:.1f} MiB "
          f"(peak {busy_mem['VmHWM'] / 1024:.1f})", ""),
     ]
+    if floor is not None:
+        rows += [
+            (f"{label}: floor: interpreter alone", f"{floor[0]:.1f} MiB", ""),
+            (f"{label}: floor: interpreter plus the modules edge-vis run loads",
+             f"{floor[1]:.1f} MiB (idle is {idle_mem['VmRSS'] / 1024 - floor[1]:.1f} above)",
+             ""),
+        ]
     if dds:
         rates = ", ".join(f"{n / args.seconds:.1f}" for _, n in sorted(per_vehicle.items()))
         rows.append((f"{label}: GlobalPose on DDS per vehicle, Hz", rates or "none",

@@ -43,7 +43,6 @@ record is flattened when decoded, and a path qualified by that record's name
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -382,6 +381,8 @@ def _lookup(catalogue: Any, name: str) -> Any:
 
 
 def _close(name: str, names: Sequence[str]) -> str:
+    import difflib  # only for a profile's typo: not in a running relay's memory
+
     near = difflib.get_close_matches(name, names, n=1)
     hint = f"; did you mean {near[0]!r}?" if near else ""
     return f"{hint} (a message set of your own needs its JSIDL in catalogue.jsidl)"

@@ -32,9 +32,9 @@ def _command_modules(only: str | None = None) -> list[ModuleType]:
     if only is not None and only.replace("-", "_") in names:
         names = [only.replace("-", "_")]
         if only == "run":  # the relay never speaks TLS: no OpenSSL in its memory
-            from edge_vis.shell.memory import import_asyncio_without_tls
+            from edge_vis.shell.memory import import_without_openssl
 
-            import_asyncio_without_tls()
+            import_without_openssl()
     modules = []
     for name in names:
         try:

@@ -4,10 +4,12 @@ The decisions are :mod:`links.udt.lane_plan`'s (how many segments, the shared bu
 pacing, which stalled segment to send again) and :mod:`links.udt.rate_probe`'s (the rate
 all lanes of an adaptive transfer keep to together); this module runs them: each lane is
 a :class:`~links.udt.transfer.BulkSender` on its own connection that sends segment after
-segment; a coordinating loop looks at the lanes every ``TICK`` seconds, feeds the bytes
-the receiver acknowledged to the rate probe, gives each lane with data on its way an
-equal share of the rate (``UDT_MAXBW``; a lane waiting for an answer or a receipt leaves
-its share to the others), starts lanes one per tick (each opens with a window of packets
+segment; a coordinating loop looks at the lanes every ``TICK`` seconds (and at once when
+a lane finishes a segment), feeds the bytes the receiver acknowledged and the lanes'
+smoothed round trips to the rate probe, gives each lane with data still to leave an
+equal share of the rate (``UDT_MAXBW``; a lane waiting for an answer, for
+acknowledgements of data already sent, or for a receipt leaves its share to the
+others), starts lanes one per tick (each opens with a window of packets
 sent before any pacing applies) and, once every segment is handed out, takes a stalled
 one over on an idle lane (the receiver hands the segment to the newest connection and
 resumes it at the bytes it holds).
@@ -102,6 +104,7 @@ class LaneRun:
         whose open connections can carry the whole-file manifest)."""
         adaptive = self.lanes == 0
         shared = SharedRate(self.budget_bps) if adaptive and self.paced else None
+        changed = threading.Event()  # a lane finished a segment: look again at once
         if shared is not None:
             self.control = shared.control
             pace = shared.pace
@@ -154,6 +157,7 @@ class LaneRun:
                         inflight[lane] = 0
                         started[lane] = (index, time.monotonic())
                     result = sender.send_file(path, replace(manifest, segment=(index, count)))
+                    changed.set()
                     with self._lock:
                         inflight.pop(lane, None)
                         began = started.pop(lane, (index, time.monotonic()))[1]
@@ -168,6 +172,7 @@ class LaneRun:
                             todo.appendleft(index)
                             failures.append(result)
             finally:
+                changed.set()
                 with self._lock:
                     running.pop(lane, None)
                     senders.pop(lane, None)
@@ -207,6 +212,9 @@ class LaneRun:
                     for stop in running.values():
                         stop.set()
                 if shared is not None:
+                    trips = [t for t in (senders[lane].round_trip() for lane in busy) if t]
+                    if trips:  # the lanes share the radio's queue: the least says it
+                        shared.control.smoothed(min(trips))
                     share = shared.share(now, acknowledged, len(busy))
                     for lane in running:
                         if shares.get(lane) != share:
@@ -231,7 +239,8 @@ class LaneRun:
                         start(spare, index)
             if self.progress:
                 self.progress(acknowledged, manifest.size)
-            time.sleep(TICK)
+            changed.wait(TICK)
+            changed.clear()
         if self.control is not None:
             log.info("%s: paced at %.2f Mbit/s at the end", manifest.name,
                      self.control.rate_bps / 1e6)

@@ -6,7 +6,8 @@ segments comes in on parallel lanes run by :class:`~links.udt.lane_run.LaneRun` 
 fresh lane), each lane a connection asking for segment after segment; the image server
 paces the lanes together, since it sends the data. This module connects, sends FETCH
 and lets the receiver's normal machinery store, resume and verify into the spool; the
-last FETCH, for the whole file, asks for the verdict on a lane's open connection.
+last FETCH, for the whole file, asks for the verdict on a lane's open connection, unless
+the segment that completed the file brought it already.
 """
 
 from __future__ import annotations
@@ -146,6 +147,10 @@ class Puller:
         try:
             if failed is not None:
                 return failed  # type: ignore[no-any-return]
+            verified = [r for r in run.results if r.state == "verified"]
+            if verified:  # the last segment completed the file and it verified
+                closer = _Lane(self, wanted, rate)
+                return verified[0]  # type: ignore[no-any-return]
             closer = idle.pop() if idle else _Lane(self, wanted, rate)
             return closer.fetch(whole)
         finally:

@@ -1,28 +1,35 @@
 """How fast all lanes of one transfer send together, from the queue they build at the
-radio. Pure logic: the caller passes the clock, round trips and acknowledged bytes.
+radio and what the receiver acknowledges. Pure logic: the caller passes the clock, round
+trips and acknowledged bytes.
 
 UDT's own congestion control reads every radio loss as congestion, and parallel lanes,
 each unaware of the others, over-run the radio's queue together (the tail drops cost
 each lane another back-off). So the lanes are paced as one, at a rate found the way
-delay-based congestion control finds it: the round trip of each segment's manifest and
-its answer waits behind whatever the radio has queued. Its least value is the path's
-own delay (``base``); every ``step`` seconds the least round trip of that step says
-whether a queue stands. Below ``room`` seconds of queueing the rate goes up by ``up``
-(by ``startup`` until the first queue is seen, or until three steps in a row deliver
-less than ``growth`` times the best so far). Above ``full`` the radio is full: the
-rate goes down by ``drain`` (the first time from what the receiver acknowledged over
-the last two steps, which is what the radio carries, if that is less).
-In between it holds - a short queue keeps the radio busy without overflowing it. Random
-radio loss delays only some answers, a full queue all of them, so the least value
-tells the two apart, given two answers or more in each of two steps in a row (four
-right after a step down: the queue takes a while to drain). While
-lanes do not use their share (UDT's own back-off after losses), the rate stays within
-``lead`` times what the receiver acknowledged (``ahead`` times during the start), so
-they cannot all take a piled-up rate at once. The rate never falls below
-``floor_bps``; with a budget it stays between ``near`` times the budget and the budget
-(the budget is the operator's word on what the radio carries for bulk data: the
-receiver's own delays in answering must not undercut it; below that, UDT's own
-back-off still answers real congestion).
+delay-based congestion control finds it: a round trip waits behind whatever the radio
+has queued, and its least value is the path's own delay (``base``). Two kinds of round
+trip come in: the lanes' connections' own smoothed round trip (:meth:`smoothed`, read
+every look at the lanes: dense, and no lost packet delays it), and the answers to the
+segments' manifests (:meth:`round_trip`, a few a second; a lost packet delays some of
+them, a full queue all of them, so the least of two or more says the queue).
+
+* The start: from ``initial_bps``, up by ``startup`` every ``startup_step`` seconds while
+  no queue shows, within ``ahead`` times what the receiver acknowledged. It ends at the
+  first queue (``room`` seconds by the smoothed round trip, ``full`` by two answers or
+  more), or when delivery stops growing by ``growth`` for three quarters of a second.
+* Then, while a queue stands, the radio is full and delivers what it carries: the rate
+  is that delivery times a factor that brings the queue to ``target`` seconds within
+  about ``settle`` seconds (between ``cut`` and ``lead``). Right after the start the
+  delivery is taken over the last two steps, or the most delivered over two steps
+  lately if more (a lane held back by the start's losses does not pull it down).
+* While no queue stands the radio has room: up by ``up`` a step within ``lead`` times
+  what the receiver acknowledged (lanes held back by UDT's own loss reaction must not
+  all take a piled-up rate at once), and at once back to the most the radio delivered
+  lately (:meth:`peak_bps`) rather than by a creep.
+
+The rate never falls below ``floor_bps``; with a budget it stays between ``near`` times
+the budget and the budget (the budget is the operator's word on what the radio carries
+for bulk data: the receiver's own delays in answering must not undercut it; below that,
+UDT's own back-off still answers real congestion).
 """
 
 from __future__ import annotations
@@ -36,9 +43,10 @@ class RateProbe:
     """The pacing rate (bit/s of file data) for the lanes of one transfer."""
 
     step: float = 0.25
+    startup_step: float = 0.125
     span: float = 1.0
-    initial_bps: float = 4e6
-    startup: float = 1.3
+    initial_bps: float = 6e6
+    startup: float = 1.14
     growth: float = 1.1
     up: float = 1.04
     drain: float = 0.95
@@ -47,13 +55,17 @@ class RateProbe:
     ahead: float = 2.0
     lead: float = 1.05
     near: float = 0.8
+    target: float = 0.005
+    window: float = 2.0
+    settle: float = 0.35
+    cut: float = 0.85
     floor_bps: float = 256e3
     budget_bps: float | None = None
     rate_bps: float = 0.0
     base: float | None = None
     #: queueing delay (s) seen in the last step
     queued: float = 0.0
-    #: "startup" until the first standing queue, then "paced"
+    #: "startup" until the first queue, then "paced"
     phase: str = "startup"
     #: every rate change: (time, rate in bit/s, phase)
     history: list[tuple[float, float, str]] = field(default_factory=list)
@@ -61,14 +73,17 @@ class RateProbe:
     _marks: deque[tuple[float, int]] = field(default_factory=deque)
     _next: float | None = None
     _answers: int = 0
-    _full_steps: int = 0
     _best: float = 0.0
     _flat: int = 0
+    _smoothed: float | None = None
+    _paced_at: float = 0.0
+    _peaks: deque[tuple[float, float]] = field(default_factory=deque)
 
     def __post_init__(self) -> None:
-        if not 0 < self.step <= self.span or self.initial_bps <= 0 or not self.room < self.full:
-            raise ValueError("rate probe: need 0 < step <= span, a positive initial rate "
-                             "and room < full")
+        if not 0 < self.startup_step <= self.step <= self.span or self.initial_bps <= 0 \
+                or not self.room < self.full:
+            raise ValueError("rate probe: need 0 < startup_step <= step <= span, a positive "
+                             "initial rate and room < full")
         self._set(self._clamp(self.initial_bps), 0.0)
 
     def round_trip(self, seconds: float) -> None:
@@ -78,6 +93,14 @@ class RateProbe:
         self.base = seconds if self.base is None else min(self.base, seconds)
         self._least = seconds if self._least is None else min(self._least, seconds)
         self._answers += 1
+
+    def smoothed(self, seconds: float) -> None:
+        """The lanes' connections' own smoothed round trip, now (the least of theirs):
+        no loss delays it, so the latest says the queue as it stands."""
+        if seconds <= 0:
+            return
+        self.base = seconds if self.base is None else min(self.base, seconds)
+        self._smoothed = seconds
 
     def delivered_bps(self, over: float | None = None) -> float:
         """Acknowledged bit/s over the last ``over`` seconds (``span`` by default; 0
@@ -90,6 +113,20 @@ class RateProbe:
             return 0.0
         return max(0, last - before) * 8 / (now - since)
 
+    def peak_bps(self, now: float) -> float:
+        """The most the receiver acknowledged in two steps within the last ``window``
+        seconds: once the radio was full, what it carries (a lane held back by a loss
+        does not lower it)."""
+        recent = self.delivered_bps(2 * self.step)
+        if recent:
+            self._peaks.append((now, recent))
+        while self._peaks and now - self._peaks[0][0] > self.window:
+            self._peaks.popleft()
+        # the second most: one sample that caught a burst of late acknowledgements is
+        # not the radio's rate
+        ranked = sorted(rate for _, rate in self._peaks)
+        return ranked[-2] if len(ranked) > 1 else 0.0
+
     def sample(self, now: float, acknowledged: int) -> float:
         """Feed the bytes acknowledged so far at ``now``; return the rate to pace at."""
         self._marks.append((now, acknowledged))
@@ -99,41 +136,54 @@ class RateProbe:
             self._next = now + self.step
         if now < self._next:
             return self.rate_bps
-        self._next = now + self.step
+        starting = self.phase == "startup"
+        self._next = now + (self.startup_step if starting else self.step)
         least, answers, self._least, self._answers = self._least, self._answers, None, 0
-        if least is None or self.base is None:
-            return self.rate_bps  # no answer this step: nothing learnt
-        self.queued = least - self.base
+        smoothed, self._smoothed = self._smoothed, None
+        if self.base is None or (least is None and smoothed is None):
+            return self.rate_bps  # no round trip this step: nothing learnt
+        self.queued = (least if smoothed is None else smoothed) - self.base
         rate, delivered = self.rate_bps, self.delivered_bps()
+        peak = self.peak_bps(now)
         at_budget = bool(self.budget_bps) and delivered >= self.near * (self.budget_bps or 0)
-        standing = self.queued >= self.full and answers >= 2 and not at_budget
-        self._full_steps = self._full_steps + 1 if standing else 0
-        if self.phase == "startup" and delivered and not at_budget:
+        queue = not at_budget and (self.queued > self.room if smoothed is not None
+                                   else self.queued >= self.full and answers >= 2)
+        if starting and delivered and not at_budget:
             if delivered > self._best * self.growth:
                 self._best, self._flat = delivered, 0
             else:
                 self._flat += 1
-        if self.phase == "startup" and self._flat >= 3:
+        if starting and self._flat * self.startup_step >= 3 * self.step:
             # Delivery stopped growing with the rate: the radio is full (a queue too
             # short to show in the round trips).
-            self.phase, self._full_steps = "paced", 0
+            self.phase, self._paced_at = "paced", now
             rate = self.drain * min(rate, self._best)
-        elif self._full_steps >= (1 if self.phase == "startup" else 2):
-            # A standing queue: the radio is full; what it delivered is what it carries.
-            if self.phase == "startup":  # what the radio carried since it filled up
-                recent = self.delivered_bps(2 * self.step)
-                self.phase, rate = "paced", min(rate, recent or delivered or rate)
-            # The queue takes a while to drain: the next step down needs two more
-            # queued steps in a row than this one did.
-            self._full_steps = -2
-            rate *= self.drain
+        elif starting and queue:
+            # The first queue: the radio is full and carried what it delivered lately.
+            self.phase, self._paced_at = "paced", now
+            rate = min(rate, peak or delivered or rate) * self._toward_target()
+        elif queue:
+            # Full: pace at what the radio delivers (over what came since the start
+            # ended, at least two steps), less while the queue stands above the target.
+            since = self.delivered_bps(min(self.span, max(2 * self.step, now - self._paced_at)))
+            if now - self._paced_at < self.span:  # still covering the start's losses
+                since = max(since, peak)
+            rate = (since or delivered or rate) * self._toward_target()
         elif self.queued <= self.room:
-            rate *= self.startup if self.phase == "startup" else self.up
-            if self.phase == "startup" and delivered:
-                rate = min(rate, max(self.initial_bps, self.ahead * delivered))
+            if starting:
+                rate *= self.startup
+                if delivered:
+                    rate = min(rate, max(self.initial_bps, self.ahead * delivered))
             elif delivered:
-                rate = min(rate, max(self.floor_bps, self.lead * delivered))
+                rate = max(min(rate * self.up, self.lead * delivered), peak, self.floor_bps)
+            else:
+                rate *= self.up
         return self._set(self._clamp(rate), now)
+
+    def _toward_target(self) -> float:
+        """The factor on what the radio delivers that brings the queue to ``target``
+        seconds within about ``settle`` seconds."""
+        return min(self.lead, max(self.cut, 1 + (self.target - self.queued) / self.settle))
 
     def _clamp(self, rate: float) -> float:
         if self.budget_bps:  # the operator's word on what the radio carries for bulk data

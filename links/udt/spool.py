@@ -92,6 +92,10 @@ class Entry:
     forwarded: set[str] = field(default_factory=set)
     delivered: str | None = None
     claims: dict[int | None, Claim] = field(default_factory=dict)
+    #: SHA-256 of the first ``hashed`` durable bytes, kept up as the prefix grows, so the
+    #: verdict at the end reads only what came last (not kept across a restart)
+    digest: Any = field(default=None, compare=False, repr=False)
+    hashed: int = 0
 
     def bounds(self, index: int) -> tuple[int, int]:
         return segment_bounds(self.manifest.size, index, self.segments)
@@ -405,6 +409,22 @@ class Spool:
                 if entry.written[i] != entry.durable[i]:
                     entry.durable[i] = entry.written[i]
                     self._append({"op": "durable", "id": tid, "seg": i, "n": entry.durable[i]})
+            self._hash_ahead(entry)
+
+    def _hash_ahead(self, entry: Entry) -> None:
+        """Hash the durable bytes held from the start of the file that are not hashed yet.
+        Durable bytes are never written again (a resumed claim writes after them)."""
+        upto = entry.prefix()
+        if upto <= entry.hashed or entry.state is not EntryState.PARTIAL:
+            return
+        if entry.digest is None:
+            entry.digest, entry.hashed = hashlib.sha256(), 0
+        with open(self._part(entry.manifest.transfer_id), "rb") as fh:
+            fh.seek(entry.hashed)
+            while entry.hashed < upto and (
+                    chunk := fh.read(min(1 << 20, upto - entry.hashed))):
+                entry.digest.update(chunk)
+                entry.hashed += len(chunk)
 
     def release(self, m: Manifest | str) -> None:
         """The connection carrying ``m`` ended: keep what arrived, free the claim."""
@@ -434,9 +454,11 @@ class Spool:
                     entry.delivered or self._ready(tid))
             self.sync(m)
             part = self._part(tid)
-        digest = hashlib.sha256()
-        size = 0
+            hashed = entry.hashed if entry.digest is not None else 0
+            digest = entry.digest.copy() if hashed else hashlib.sha256()
+        size = hashed
         with open(part, "rb") as fh:
+            fh.seek(hashed)
             while chunk := fh.read(1 << 20):
                 digest.update(chunk)
                 size += len(chunk)

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any, Self
 
 from edge_vis.errors import LinkError
+from links.udt import udt_stats
 from links.udt.lane_plan import segments_for
 from links.udt.lane_run import LaneRun
 from links.udt.protocol import (
@@ -50,6 +51,9 @@ from links.udt.spool import Spool, SpoolRefusal
 
 log = logging.getLogger(__name__)
 
+EARLY_KEPT = 1024
+"""Transfers a receiver remembers as verified with their last segment, to answer a
+sender that asks again with the whole-file manifest without announcing twice."""
 POLL_MS = 250
 """Receive timeout on every socket, so threads notice ``stop()`` within this time."""
 PACED_CHUNK = 64 * 1024
@@ -122,6 +126,14 @@ def _connect(address: tuple[str, int], timeout: float, max_rate_bps: int | None)
         time.sleep(0.005)
     sock.close()
     raise ConnectionLost(f"no UDT answer from {address[0]}:{address[1]} within {timeout:g} s")
+
+
+def _payload(sock: Any) -> int:
+    """File bytes a full data packet carries (the MSS less IP, UDP and UDT headers)."""
+    try:
+        return int(sock.UDT_MSS) - 44
+    except udt4py().UDTException:
+        return 0
 
 
 def _pending(sock: Any) -> int:
@@ -212,6 +224,9 @@ class TransferResult:
     code: Reason | None = None
     attempts: int = 1
     resumed_from: tuple[int, ...] = ()
+    #: the SHA-256 the receipt confirmed: a lane's segment receipt carries the whole
+    #: file's when that segment completed the file and the receiver verified it
+    sha256: str = ""
 
 
 ProgressFn = Callable[[int, int], None]
@@ -270,20 +285,36 @@ class BulkSender:
         self._live_conn: SenderConnection | None = None
         self._cap: float | None = None
         self._cap_on: float | None = None  # the cap the live socket has
+        self._round_trip: float | None = None
 
     def acknowledged(self) -> tuple[tuple[int, int] | None, int, bool] | None:
         """(segment, bytes of it the receiver acknowledged, whether data of it is still
-        on its way) of the transfer under way now; None between transfers. Called from
-        another thread: a lane waiting for an answer or a receipt leaves the radio to
-        the others."""
+        to leave) of the transfer under way now; None between transfers. Called from
+        another thread: a lane waiting for an answer, for acknowledgements of what it
+        sent or for a receipt leaves the radio to the others. Also reads the smoothed
+        round trip :meth:`round_trip` returns."""
         sock, conn = self._live, self._live_conn
-        if sock is None or conn is None or conn.manifest is None:
+        if sock is None or conn is None:
             return None
-        if conn.state not in (State.SENDING, State.AWAIT_RECEIPT):
-            return conn.manifest.segment, 0, False
+        # (read once: the sender's thread moves on to the next segment meanwhile)
+        manifest, state, offset = conn.manifest, conn.state, conn.offset
+        if manifest is None:
+            return None
+        if state not in (State.SENDING, State.AWAIT_RECEIPT):
+            return manifest.segment, 0, False
         pending = _pending(sock)
-        return conn.manifest.segment, max(0, conn.offset - pending), \
-            conn.state is State.SENDING or pending > 0
+        stats = udt_stats.read(sock)
+        self._round_trip = None if stats is None else stats.round_trip
+        # data still to leave: what UDT holds less what it sent and awaits an ACK for
+        unsent = pending if stats is None else pending - stats.in_flight * _payload(sock)
+        return manifest.segment, max(0, offset - pending), \
+            state is State.SENDING or unsent > 0
+
+    def round_trip(self) -> float | None:
+        """UDT's smoothed round trip (s) of the connection under way, radio queue
+        included, as :meth:`acknowledged` last read it; None between transfers or before
+        it settled. Called from another thread."""
+        return self._round_trip
 
     def cap(self, data_bps: float) -> None:
         """Hold this sender's connection to ``data_bps`` bits of file data per second
@@ -342,9 +373,12 @@ class BulkSender:
         try:
             if failed is not None:
                 return TransferResult(False, failed.reason, failed.code, attempts, offsets)
-            # The whole-file manifest on a lane's open connection: no new handshake.
-            closer = idle.pop() if idle else self
-            final = closer._send_one(path, manifest)
+            if any(r.ok and r.sha256 == manifest.sha256 for r in run.results):
+                # the last segment's receipt carried the verdict on the whole file
+                final, closer = TransferResult(True, "SHA-256 verified", attempts=0), self
+            else:  # the whole-file manifest on a lane's open connection: no handshake
+                closer = idle.pop() if idle else self
+                final = closer._send_one(path, manifest)
         finally:
             for sender in idle:
                 sender.close()
@@ -373,8 +407,8 @@ class BulkSender:
                          outcome)
             if isinstance(outcome, TransferResult):
                 return TransferResult(
-                    outcome.ok, outcome.reason, outcome.code, attempts, tuple(offsets)
-                )
+                    outcome.ok, outcome.reason, outcome.code, attempts, tuple(offsets),
+                    outcome.sha256)
             if offsets and offsets[-1] > best:
                 best = offsets[-1]
                 last_progress = time.monotonic()
@@ -514,7 +548,8 @@ class BulkSender:
             if self.progress and receipt.ok:
                 self.progress(manifest.length, manifest.length)
             return TransferResult(receipt.ok, receipt.reason or "SHA-256 verified",
-                                  None if receipt.ok else Reason.HASH_MISMATCH), True
+                                  None if receipt.ok else Reason.HASH_MISMATCH,
+                                  sha256=receipt.sha256 if receipt.ok else ""), True
         return self._ended(receipt), False
 
     def _stream(self, sock: Any, conn: SenderConnection, path: Path, offset: int,
@@ -749,6 +784,9 @@ class BulkReceiver(UdtService):
         self._lock = threading.Lock()
         self._local = threading.local()
         self._cut: set[int] = set()  # ids of sockets their serving thread must close
+        #: transfers verified with their last segment (the most recent ``EARLY_KEPT``)
+        self._verified_early: dict[str, None] = {}
+        self._status_lock = threading.Lock()
         self.counters = {"connections": 0, "protocol_errors": 0, "refused": 0, "verified": 0,
                          "unauthenticated": 0}
 
@@ -909,6 +947,56 @@ class BulkReceiver(UdtService):
         entry = self.spool.entry(m.transfer_id)
         return m.size if entry is None else min(m.size, entry.held)
 
+    def _completes(self, m: Manifest) -> bool:
+        """Whether this segment was the last one the file lacked (claimed here by one
+        connection only: two lanes may finish together)."""
+        if not self.spool.all_held(m.transfer_id):
+            return False
+        entry = self.spool.entry(m.transfer_id)
+        with self._lock:
+            if entry is None or entry.state.value != "partial" \
+                    or m.transfer_id in self._verified_early:
+                return False
+            self._verified_early[m.transfer_id] = None
+            while len(self._verified_early) > EARLY_KEPT:
+                del self._verified_early[next(iter(self._verified_early))]
+        return True
+
+    def _verdict(self, conn: ReceiverConnection, m: Manifest, peer: str) -> None:
+        """Verify the whole file and answer with the receipt: on the whole-file manifest,
+        or on the segment that completed a pushed file (its receipt then carries the
+        file's SHA-256, and the sender need not ask)."""
+        sock, whole = self._local.sock, m.whole()
+        try:
+            path = self.spool.complete(m)
+        except SpoolRefusal as exc:
+            log.warning("%s from %s failed verification: %s", m.name, peer, exc.reason)
+            with self._lock:
+                self._verified_early.pop(m.transfer_id, None)
+            self._release(m, sock)
+            conn.send_receipt(False, "", exc.reason)
+            self._status(whole, "failed", m.size, exc.reason)
+            self._outcome("mismatch", exc.reason)
+            return None
+        self._release(m, sock)
+        conn.send_receipt(True, m.sha256, "" if m.segment is None else
+                          f"segment {m.segment[0] + 1}/{m.segment[1]} stored; SHA-256 verified")
+        # The sender waits for this receipt; thumbnails and announcements need not
+        # hold it up (a lost connection is noticed by the caller's next send).
+        with contextlib.suppress(ConnectionLost):
+            _send_all(sock, conn.data_to_send())
+        self.counters["verified"] += 1
+        log.info("verified %s from %s (sha256 %s...)", m.name, m.vehicle_id, m.sha256[:12])
+        with self._status_lock:
+            self._status(whole, "verified", m.size)
+        self._outcome("verified")
+        if self.on_verified is not None:
+            try:
+                self.on_verified(whole, path)
+            except Exception:  # announcing must not lose the file
+                log.exception("announcing %s failed", m.name)
+        return None
+
     def _handle(self, conn: ReceiverConnection, event: Any, peer: str,
                 current: Manifest | None) -> Manifest | None:
         if isinstance(event, ManifestReceived):
@@ -953,31 +1041,22 @@ class BulkReceiver(UdtService):
             sock = self._local.sock
             if m.segment is not None:
                 self._release(m, sock)
+                if self._completes(m):  # the file's last segment: the verdict now
+                    return self._verdict(conn, m, peer)
                 conn.send_receipt(True, "", f"segment {m.segment[0] + 1}/{m.segment[1]} stored")
-                self._status(m, "active", self._held(m))
+                with self._status_lock:  # never after the verdict another lane gave
+                    if m.transfer_id not in self._verified_early:
+                        self._status(m, "active", self._held(m))
                 self._outcome("stored")
                 return None
-            try:
-                path = self.spool.complete(m)
-            except SpoolRefusal as exc:
-                log.warning("%s from %s failed verification: %s", m.name, peer, exc.reason)
+            with self._lock:
+                early = self._verified_early.pop(m.transfer_id, "") is None
+            if early:  # verified with its last segment; the sender asks anyway
                 self._release(m, sock)
-                conn.send_receipt(False, "", exc.reason)
-                self._status(m, "failed", m.size, exc.reason)
-                self._outcome("mismatch", exc.reason)
+                conn.send_receipt(True, m.sha256)
+                self._outcome("verified")
                 return None
-            self._release(m, sock)
-            conn.send_receipt(True, m.sha256)
-            self.counters["verified"] += 1
-            log.info("verified %s from %s (sha256 %s...)", m.name, m.vehicle_id, m.sha256[:12])
-            self._status(m, "verified", m.size)
-            self._outcome("verified")
-            if self.on_verified is not None:
-                try:
-                    self.on_verified(m, path)
-                except Exception:  # announcing must not lose the file
-                    log.exception("announcing %s failed", m.name)
-            return None
+            return self._verdict(conn, m, peer)
         if isinstance(event, ManifestRejected):
             self.counters["refused"] += 1
             if event.code is Reason.UNAUTHENTICATED:

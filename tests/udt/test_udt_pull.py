@@ -8,6 +8,7 @@ publishes one product per image whatever arrives first.
 
 from __future__ import annotations
 
+import logging
 import threading
 import time
 from pathlib import Path
@@ -183,11 +184,13 @@ def test_queue_fetches_the_most_confident_image_first(tmp_path: Path, make_file)
     assert fetched == ["atr-2", "atr-1"]
 
 
-def test_a_large_image_is_fetched_on_parallel_lanes(tmp_path: Path, make_file):
+def test_a_large_image_is_fetched_on_parallel_lanes(tmp_path: Path, make_file, caplog):
     """Files of several MiB are fetched on parallel lanes, segment after segment on each
-    connection, paced by the image server."""
+    connection, paced by the image server; the segment that completes the file brings
+    the verdict, so no whole-file FETCH follows."""
     path, content = make_file(8 << 20, "atr-21.png")
     bus = Bus()
+    caplog.set_level(logging.INFO, logger="links.udt.image_server")
     with UdtBulkChannel.ImageServer(path.parent) as server, \
             service(tmp_path, bus, server.address) as relay:
         relay.announce(announcement(content, 21))
@@ -201,3 +204,7 @@ def test_a_large_image_is_fetched_on_parallel_lanes(tmp_path: Path, make_file):
     assert server.counters["served"] > server.counters["connections"]
     assert server.counters["interrupted"] == 0
     assert [s["transfer_id"] for s in bus.of("ImageProduct")][-1]
+    served = [r.getMessage() for r in caplog.records
+              if r.getMessage().startswith("served atr-21.png")]
+    assert [m for m in served if m.endswith("stored; SHA-256 verified")]
+    assert not [m for m in served if "segment" not in m]

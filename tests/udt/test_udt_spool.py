@@ -236,3 +236,73 @@ def test_a_different_lane_count_is_refused_clearly(tmp_path: Path):
     spool.begin(replace(m, segment=(0, 4)))
     with pytest.raises(SpoolRefusal, match="received in 4 lane"):
         spool.begin(replace(m, segment=(0, 2)))
+
+
+def test_the_prefix_is_hashed_as_it_grows_so_the_verdict_reads_only_the_rest(tmp_path: Path):
+    """Segments arrive out of order; each one made durable extends the hashed prefix as
+    far as the file is held from its start, and the verdict still checks every byte."""
+    content = os.urandom(800_000)
+    m = manifest_for(content)
+    lanes = [replace(m, segment=(i, 4)) for i in range(4)]
+    spool = Spool(tmp_path / "s", sync_interval=3600.0)
+    hashed = []
+    for i in (1, 0, 3, 2):
+        a, b = lanes[i].span()
+        spool.begin(lanes[i])
+        spool.write(lanes[i], 0, content[a:b])
+        spool.release(lanes[i])
+        hashed.append(spool.entry(m.transfer_id).hashed)
+    assert hashed == [0, lanes[1].span()[1], lanes[1].span()[1], len(content)]
+    assert spool.complete(m).read_bytes() == content
+
+
+def test_a_corrupted_byte_hashed_on_the_way_is_refused_and_the_file_taken_again(
+        tmp_path: Path):
+    content = os.urandom(600_000)
+    m = manifest_for(content)
+    lanes = [replace(m, segment=(i, 3)) for i in range(3)]
+    bad = bytearray(content)
+    bad[1234] ^= 0x01  # one bit, in the first segment: hashed before the verdict
+    spool = Spool(tmp_path / "s")
+    for lane in lanes:
+        a, b = lane.span()
+        spool.begin(lane)
+        spool.write(lane, 0, bytes(bad[a:b]))
+        spool.release(lane)
+    assert spool.entry(m.transfer_id).hashed == len(content)
+    with pytest.raises(SpoolRefusal, match="SHA-256 mismatch") as info:
+        spool.complete(m)
+    assert info.value.code is Reason.HASH_MISMATCH
+    assert spool.entry(m.transfer_id) is None
+    for lane in lanes:  # taken again, from the start
+        a, b = lane.span()
+        assert spool.begin(lane) == 0
+        spool.write(lane, 0, content[a:b])
+        spool.release(lane)
+    assert spool.complete(m).read_bytes() == content
+
+
+def test_after_a_restart_the_verdict_hashes_the_whole_file_again(tmp_path: Path):
+    """What was hashed on the way lives in memory only: a restarted spool reads every
+    byte, so a file changed on disk while the relay was down is still refused."""
+    content = os.urandom(400_000)
+    m = manifest_for(content)
+    lanes = [replace(m, segment=(i, 2)) for i in range(2)]
+    spool = Spool(tmp_path / "s")
+    a, b = lanes[0].span()
+    spool.begin(lanes[0])
+    spool.write(lanes[0], 0, content[a:b])
+    spool.release(lanes[0])
+    assert spool.entry(m.transfer_id).hashed == b
+    spool.close()
+    part = tmp_path / "s" / "partial" / f"{m.transfer_id}.part"
+    data = bytearray(part.read_bytes())
+    data[10] ^= 0xFF
+    part.write_bytes(bytes(data))
+    again = Spool(tmp_path / "s")
+    a, b = lanes[1].span()
+    assert again.begin(lanes[1]) == 0
+    again.write(lanes[1], 0, content[a:b])
+    again.release(lanes[1])
+    with pytest.raises(SpoolRefusal, match="SHA-256 mismatch"):
+        again.complete(m)

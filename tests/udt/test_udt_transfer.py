@@ -225,6 +225,70 @@ def test_lanes_over_a_lossy_link_survive_a_drop_and_verify(tmp_path: Path, make_
     assert (tmp_path / "ops" / "uuv1" / "img.png").read_bytes() == content
 
 
+def test_paced_lanes_through_a_radio_cut_twice_resume_and_verify(tmp_path: Path, make_file):
+    """No flags: the lanes are paced from their connections' round trips and what the
+    receiver acknowledges; cut twice, every lane resumes at what the spool holds."""
+    path, content = make_file(3 << 20)
+    with UdtBulkChannel.ImageService(tmp_path / "ops") as ops, LossyProxy(
+        ops.address, delay=0.010, rate_bps=20e6, queue_bytes=64 * 1024, lifetime=60,
+    ) as proxy:
+        results = []
+        sender = UdtBulkChannel.BulkSender(proxy.address, lanes=0, backoff=FAST,
+                                           give_up_after=20)
+        m = UdtBulkChannel.manifest_for_file(path, vehicle_id="uuv1")
+        thread = threading.Thread(target=lambda: results.append(sender.send_file(path, m)))
+        thread.start()
+        for held in (600_000, 1_500_000):
+            wait_for(lambda h=held: [e for e in spool_entries(ops.spool)
+                                     if sum(e.durable) > h], 20, f"{held} bytes held")
+            assert ops.receiver.drop_connections() >= 1
+        thread.join(40)
+        sender.close()
+    (result,) = results
+    assert result.ok, result.reason
+    assert sum(1 for o in result.resumed_from if o) >= 1
+    assert sender.rate_history, "the rate probe paced the lanes"
+    assert (tmp_path / "ops" / "uuv1" / "img.png").read_bytes() == content
+
+
+def test_the_last_segment_of_a_push_brings_the_verdict_once(tmp_path: Path, make_file):
+    """The receipt of the segment that completes the file carries its verified SHA-256,
+    so the sender does not ask again with the whole-file manifest (a round trip less);
+    a sender that does ask (an older one) is answered without a second announcement."""
+    path, content = make_file(3 << 20)
+    published: list[str] = []
+    with UdtBulkChannel.ImageService(
+            tmp_path / "ops", publish=lambda topic, sample: published.append(topic)) as ops:
+        m = UdtBulkChannel.manifest_for_file(path, vehicle_id="uuv1")
+        result = UdtBulkChannel.send_image(path, ops.address, manifest=m, lanes=4)
+        assert result.ok, result.reason
+        assert len(content) not in result.resumed_from  # no whole-file manifest was sent
+        assert ops.receiver.counters["verified"] == 1
+        with UdtBulkChannel.BulkSender(ops.address) as older:
+            again = older.send_file(path, m)
+        assert again.ok and again.resumed_from == (len(content),)
+        wait_for(lambda: "ImageProduct" in published, 5, "the announcement")
+        time.sleep(0.2)
+    assert published.count("ImageProduct") == 1
+    assert (tmp_path / "ops" / "uuv1" / "img.png").read_bytes() == content
+
+
+def test_lanes_whose_data_fails_the_hash_are_refused_then_sent_again(tmp_path: Path,
+                                                                     make_file):
+    """The receiver hashes each lane's segments as they are stored; data that is not the
+    announced file is still refused at the verdict, and the right data then verifies."""
+    path, content = make_file(2 << 20)
+    lie = manifest(content[:-1] + bytes([content[-1] ^ 1]))  # one bit off at the very end
+    with UdtBulkChannel.ImageService(tmp_path / "ops") as ops:
+        result = UdtBulkChannel.send_image(path, ops.address, manifest=lie, lanes=0)
+        assert not result.ok
+        assert result.code is Reason.HASH_MISMATCH
+        assert "SHA-256 mismatch" in result.reason
+        assert UdtBulkChannel.send_image(path, ops.address, manifest=manifest(content),
+                                         lanes=0).ok
+    assert (tmp_path / "ops" / "uuv1" / "img.png").read_bytes() == content
+
+
 # --------------------------------------------------------------------------- bad input
 
 

@@ -1,0 +1,53 @@
+"""What libudt says of a real connection that udt4py does not: its smoothed round trip
+and the packets in flight, read for the rate probe."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import pytest
+
+pytest.importorskip("udt4py")
+
+from lossy_proxy import LossyProxy
+from udt_helpers import wait_for
+
+from links.udt import udt_stats
+
+pytestmark = pytest.mark.udt
+
+
+def test_a_connection_through_a_delaying_radio_reports_its_round_trip_and_flight():
+    udt4py = pytest.importorskip("udt4py")
+    server = udt4py.UDTSocket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(1)
+    received = []
+
+    def sink() -> None:
+        conn, _ = server.accept()
+        buf = bytearray(65536)
+        while sum(received) < 4 << 20:
+            received.append(conn.recv(buf))
+
+    thread = threading.Thread(target=sink, daemon=True)
+    thread.start()
+    with LossyProxy(server.address, delay=0.020, rate_bps=20e6, lifetime=30) as proxy:
+        client = udt4py.UDTSocket()
+        client.connect(proxy.address)
+        assert udt_stats.read(client).round_trip is None  # UDT's first guess, not yet
+        flights = []
+        client.send(bytes(4 << 20))  # into UDT's buffer; 20 Mbit/s take 1.7 s
+        while sum(received) < 4 << 20:
+            flights.append(udt_stats.read(client).in_flight)
+            time.sleep(0.02)
+        stats = wait_for(lambda: (s := udt_stats.read(client)) and s.round_trip and s, 10,
+                         "a settled round trip")
+        # 2 x 20 ms of radio delay, and a little for serialising and acknowledging
+        assert 0.038 <= stats.round_trip <= 0.080
+        assert max(flights) > 0
+        thread.join(10)
+        client.close()
+    server.close()
+    assert udt_stats.read(client) is None  # closed: nothing to read
