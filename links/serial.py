@@ -43,7 +43,14 @@ from typing import Any, ClassVar
 import serial  # pyserial
 
 from edge_vis.errors import LinkError
-from edge_vis.jaus.serial_framing import FRAME_OVERHEAD, SerialDeframer, SerialError, frame
+from edge_vis.jaus.serial_framing import (
+    FRAME_OVERHEAD,
+    FRAME_PARTS,
+    SerialDeframer,
+    SerialError,
+    frame,
+    frame_parts,
+)
 from edge_vis.jaus.transport import Packet
 from edge_vis.routing.link import Link, LinkOptions, LinkUrl, Peer
 from edge_vis.schema import setting
@@ -218,11 +225,45 @@ class SerialLink(Link):
         if self._fd is None:
             self.counters.dropped("link down", len(packets))
             return
-        if not packets:
+        if packets:
+            self._write(list(map(frame, packets)))
+
+    def _send_wires(self, wires: Sequence[bytes], peer: Peer | None) -> None:
+        """Frames of forwarded messages: written at once in one system call when nothing
+        waits and the link is not paced (the usual case of a fast port), else as
+        :meth:`_send` does."""
+        fd = self._fd
+        if fd is None:
+            self.counters.dropped("link down", len(wires))
             return
+        if not wires:
+            return
+        parts = frame_parts(wires)
+        if self._out or self.pace or self._pump_handle is not None or self._writer_armed:
+            self._write([b"".join(parts[i:i + FRAME_PARTS])
+                         for i in range(0, len(parts), FRAME_PARTS)])
+            return
+        data = b"".join(parts)
+        try:
+            written = os.write(fd, data)
+        except OSError:  # _pump meets it again below and says what it means
+            written = 0
+        self.counters.sent(self.path, len(data), len(wires))
+        if written == len(data):
+            return
+        # the port took part of it: the rest waits in the buffer, frame by frame
+        self._out += data
+        self._frames.extend(sum(map(len, parts[i:i + FRAME_PARTS]))
+                            for i in range(0, len(parts), FRAME_PARTS))
+        if written:
+            del self._out[:written]
+            self._written(written)
+        self._pump()
+
+    def _write(self, framed: list[bytes]) -> None:
+        """Buffer whole frames (up to the buffer's bound) and write what pacing allows."""
         out, frames = self._out, self._frames
         before = len(out)
-        framed = list(map(frame, packets))
         lengths = list(map(len, framed))
         if before + sum(lengths) - lengths[-1] <= MAX_WRITE_BUFFER:  # all fit (usual)
             out += b"".join(framed)
@@ -232,7 +273,7 @@ class SerialLink(Link):
             sent = 0
             for data in framed:
                 if len(out) > MAX_WRITE_BUFFER:
-                    self.counters.dropped("send buffer full", len(packets) - sent)
+                    self.counters.dropped("send buffer full", len(framed) - sent)
                     break
                 out += data
                 frames.append(len(data))

@@ -65,7 +65,14 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from edge_vis.errors import DecodeError, LinkError
-from edge_vis.jaus.transport import JUDP_VERSION, Packet, encode_packet, unpack_datagram
+from edge_vis.jaus.transport import (
+    JUDP_VERSION,
+    MIN_DATA_SIZE,
+    Packet,
+    encode_packet,
+    packet_from_wire,
+    unpack_datagram,
+)
 from edge_vis.routing.link import Link, LinkOptions, LinkUrl, Peer, parse_peers
 from edge_vis.schema import setting
 from edge_vis.shell.sharedloop import on_loop_thread, shared_lock
@@ -255,11 +262,24 @@ class UdpLink(Link):
 
     # -- sending ---------------------------------------------------------------------
     def _send(self, packets: Sequence[Packet], peer: Peer | None) -> None:
-        sock = self._sock
-        if sock is None:
+        if self._sock is None:
             self.counters.dropped("link down", len(packets))
             return
-        datagrams = self._datagrams(packets)
+        self._transmit(self._datagrams(packets), peer)
+
+    def _send_wires(self, wires: Sequence[bytes], peer: Peer | None) -> None:
+        if self._sock is None:
+            self.counters.dropped("link down", len(wires))
+            return
+        if self.pack and len(wires) > 1:
+            self._send([packet_from_wire(w) for w in wires], peer)
+            return
+        version = bytes((JUDP_VERSION,))
+        self._transmit([(version + w, 1) for w in wires], peer)
+
+    def _transmit(self, datagrams: list[tuple[bytes, int]], peer: Peer | None) -> None:
+        sock = self._sock
+        assert sock is not None
         targets = [peer] if peer is not None else self._broadcast_targets()
         counters = self.counters
         for target in targets:
@@ -443,8 +463,66 @@ class UdpLink(Link):
         many were read.
 
         Consecutive datagrams from one peer are delivered in one call: the router then
-        handles a burst in one pass and sends one batch per destination.
+        handles a burst in one pass and sends one batch per destination. With the
+        runtime's pass-through path (and no tap), a run of datagrams of the usual form
+        (version 2, at least one message) is offered to it as bytes first
+        (:meth:`Link._received_wires`); the rest is decoded as below.
         """
+        if self._pass_through is None or self._taps:
+            return self._drain_packets()
+        sock = self._sock
+        buffer = self._buffer
+        wires: list[bytes] = []
+        peer: tuple[str, int] | None = None
+        version = JUDP_VERSION
+        count = 0
+        if sock is None:
+            return 0
+        while count < READ_BATCH:
+            try:
+                size, addr = sock.recvfrom_into(buffer)
+            except BlockingIOError:
+                break
+            except OSError as exc:  # e.g. ICMP errors surfacing on the socket: keep going
+                count += 1
+                self.counters.dropped("receive error")
+                self.counters.last_error = str(exc)
+                continue
+            count += 1
+            if addr != peer or size <= MIN_DATA_SIZE or buffer[0] != version:
+                if wires:
+                    self._offer(peer, wires)  # type: ignore[arg-type]
+                    wires = []
+                    if self._sock is None:  # closed by what the datagrams caused
+                        return count
+                peer = addr
+                if size <= MIN_DATA_SIZE or buffer[0] != version:  # the full path says why
+                    self._one(addr, buffer, size)
+                    if self._sock is None:
+                        return count
+                    continue
+            wires.append(bytes(buffer[1:size]))
+        if wires:
+            self._offer(peer, wires)  # type: ignore[arg-type]
+        return count
+
+    def _offer(self, peer: tuple[str, int], wires: list[bytes]) -> None:
+        """One peer's run of datagrams of the usual form (without the version byte)."""
+        self._learn(peer)
+        self._received_wires(peer, wires, 1)
+
+    def _one(self, addr: tuple[str, int], buffer: memoryview, size: int) -> None:
+        """One datagram of another form: decoded (multi-message) or refused whole."""
+        try:
+            packets = unpack_datagram(buffer, size)
+        except DecodeError as exc:
+            self._malformed(addr, str(exc), buffer[:size].tobytes())
+            return
+        self._learn(addr)
+        self._received(addr, packets, size)
+
+    def _drain_packets(self) -> int:
+        """:meth:`_drain` without the pass-through path: every datagram decoded."""
         sock = self._sock
         buffer = self._buffer
         batch: list[Packet] = []

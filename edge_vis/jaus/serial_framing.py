@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import struct
 from binascii import crc_hqx
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from edge_vis.errors import DecodeError
@@ -126,6 +127,30 @@ def frame(packet: Packet) -> bytes:
     # the packet CRC, little-endian, is the bit-reversed register's bytes in swapped order
     return b"".join((start, message.replace(_DLE, _DLE2), _END, _TAIL[crc >> 8],
                      _TAIL[crc & 0xFF]))
+
+
+#: pieces :func:`frame_parts` makes of each frame
+FRAME_PARTS = 5
+
+
+def frame_parts(messages: Iterable[bytes]) -> list[bytes]:
+    """The frames of general transport messages given as their bytes (``Packet.wire``,
+    or what :func:`~edge_vis.jaus.transport.encode_packet` returns), as one list of
+    pieces, :data:`FRAME_PARTS` per frame: ``b"".join`` of a frame's pieces is
+    :func:`frame` of it, byte for byte; of the whole list, every frame in order (one
+    write for a batch, without a call or a join per message)."""
+    heads = _HEADS
+    rev = _REVERSED
+    tail = _TAIL
+    end = _END
+    dle, dle2 = _DLE, _DLE2
+    out: list[bytes] = []
+    extend = out.extend
+    for message in messages:
+        start, register = heads.get(len(message)) or _framed_head(len(message))
+        crc = crc_hqx(message.translate(rev), register)
+        extend((start, message.replace(dle, dle2), end, tail[crc >> 8], tail[crc & 0xFF]))
+    return out
 
 
 @dataclass(frozen=True, slots=True)

@@ -39,6 +39,8 @@ MIN_DATA_SIZE = 14
 JTS_MAX_PAYLOAD = 4079
 
 _HEAD = struct.Struct("<BHBII")  # type/hc, data size, flags, destination, source
+#: the header's fixed part: type/HC flags, data size, flags, destination, source
+HEADER = _HEAD
 _HEAD_HC = struct.Struct("<BHBBBII")  # with HC number and HC length
 _SEQ = struct.Struct("<H")
 _CODE = struct.Struct("<H")
@@ -245,6 +247,36 @@ def decode_packet(data: bytes | memoryview, offset: int = 0) -> tuple[Packet, in
         )
     end = offset + size
     return _packet(dst, src, flags, message_type, bytes(data[offset:end])), end
+
+
+def packet_from_wire(wire: bytes) -> Packet:
+    """The :class:`Packet` of ``wire``, one whole general transport message without
+    header compression (its data size equal to its length): what a router that took
+    such bytes without decoding them (:meth:`edge_vis.routing.router.Router.forward`)
+    queues. Raises :class:`DecodeError` otherwise."""
+    packets = unpack_message(wire)
+    if len(packets) != 1:
+        raise DecodeError(f"{len(packets)} transport messages where one was expected",
+                          path="transport", offset=0)
+    return packets[0]
+
+
+def unpack_message(wire: bytes) -> list[Packet]:
+    """Every general transport message in ``wire``: a JUDP datagram without its version
+    byte. Raises :class:`DecodeError` as :func:`unpack_datagram` does."""
+    if len(wire) >= MIN_DATA_SIZE:  # the usual case: one message, no compression
+        type_hc, length, flags, dst, src = _HEAD.unpack_from(wire)
+        if length == len(wire) and length >= MIN_DATA_SIZE and not type_hc >> 6:
+            return [_packet(dst, src, flags, type_hc & 0x3F, wire)]
+    packets = []
+    offset = 0
+    end = len(wire)
+    while offset < end:
+        packet, offset = decode_packet(wire, offset)
+        packets.append(packet)
+    if not packets:
+        raise DecodeError("datagram holds no transport message", path="transport", offset=1)
+    return packets
 
 
 def pack_datagram(packets: Iterable[Packet]) -> bytes:

@@ -18,6 +18,7 @@ Life cycle (the runtime is one asyncio loop; every call is made from it)::
     await open(deliver, on_state)  resources acquired; state "open"
         │
         ├──► send(packets, peer)           any number of times, never blocks; peer None = broadcast
+        ├──► send_wires(wires, peer)       the same for messages given as their bytes
         ├──► send_urgent(packets, peer)    the same, ahead of whatever the link still holds
         ├──◄ deliver(name, peer, packets)  called by the link for every good datagram / frame
         └──◄ on_state(name, state, reason) "down" / "open" when the medium goes and comes back
@@ -43,8 +44,8 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 from urllib.parse import parse_qsl, urlsplit
 
-from edge_vis.errors import ConfigError, PluginNotFoundError
-from edge_vis.jaus.transport import JTS_MAX_PAYLOAD, Packet
+from edge_vis.errors import ConfigError, DecodeError, PluginNotFoundError
+from edge_vis.jaus.transport import JTS_MAX_PAYLOAD, Packet, packet_from_wire, unpack_message
 from edge_vis.schema import Reader, setting
 
 log = logging.getLogger(__name__)
@@ -56,6 +57,9 @@ DeliverCallback = Callable[[str, Peer, list[Packet]], None]
 StateCallback = Callable[[str, str, str], None]
 TapCallback = Callable[[str, str, Peer, Sequence[Packet]], None]
 """``tap(link_name, direction, peer, packets)`` with direction ``"in"`` or ``"out"``."""
+PassThroughCallback = Callable[[str, Peer, list[bytes]], int]
+"""``pass_through(link_name, peer, wires)``: the runtime forwards the leading messages
+that only pass through (see :meth:`Link.open`) and returns how many it took."""
 
 #: peers tracked per link before the least recently seen is forgotten (bounds memory
 #: when a noisy network sends from many source addresses)
@@ -267,6 +271,7 @@ class Link(ABC):
         self._deliver: DeliverCallback | None = None
         self._on_state: StateCallback | None = None
         self._taps: list[TapCallback] = []
+        self._pass_through: PassThroughCallback | None = None
 
     # -- options -----------------------------------------------------------------------
     @classmethod
@@ -296,8 +301,15 @@ class Link(ABC):
         return []
 
     # -- life cycle --------------------------------------------------------------------
-    async def open(self, deliver: DeliverCallback, on_state: StateCallback | None = None) -> None:
+    async def open(self, deliver: DeliverCallback, on_state: StateCallback | None = None, *,
+                   pass_through: PassThroughCallback | None = None) -> None:
         """Acquire the medium; from now on received packets go to ``deliver``.
+
+        ``pass_through`` (optional): a link that receives one general transport message
+        per datagram may first offer a run of them from one peer as their bytes; the
+        runtime forwards the leading ones that only pass through (the router's
+        :meth:`~edge_vis.routing.router.Router.forward`) and returns how many it took;
+        the rest go to ``deliver`` decoded, in order, as always. No link has to use it.
 
         Raises :class:`~edge_vis.errors.LinkError` when the medium cannot be opened.
         """
@@ -305,6 +317,7 @@ class Link(ABC):
             raise RuntimeError(f"link {self.name} already opened (state {self.state})")
         self._deliver = deliver
         self._on_state = on_state
+        self._pass_through = pass_through
         await self._open()
         if self.state == "new":
             self.state = "open"
@@ -317,6 +330,17 @@ class Link(ABC):
         for tap in self._taps:
             tap(self.name, "out", peer, packets)
         self._send(packets, peer)
+
+    def send_wires(self, wires: Sequence[bytes], peer: Peer | None = None) -> None:
+        """:meth:`send` for general transport messages given as their bytes (forwarded as
+        they were received: :class:`~edge_vis.routing.router.ForwardWires`)."""
+        if self.state not in ("open", "down"):
+            self.counters.dropped("link closed", len(wires))
+            return
+        if self._taps:  # the taps see packets
+            self.send([packet_from_wire(w) for w in wires], peer)
+            return
+        self._send_wires(wires, peer)
 
     def send_urgent(self, packets: Sequence[Packet], peer: Peer | None = None) -> None:
         """Like :meth:`send`, but ahead of everything the link still holds to write, and
@@ -373,6 +397,36 @@ class Link(ABC):
     def _send_urgent(self, packets: Sequence[Packet], peer: Peer | None) -> None:
         """Write packets ahead of anything buffered (default: as :meth:`_send`)."""
         self._send(packets, peer)
+
+    def _send_wires(self, wires: Sequence[bytes], peer: Peer | None) -> None:
+        """Write messages given as their bytes (default: decoded, then :meth:`_send`)."""
+        self._send([packet_from_wire(w) for w in wires], peer)
+
+    def _received_wires(self, peer: Peer, wires: list[bytes], extra: int = 0) -> None:
+        """Hand a run of messages received from ``peer`` (each one whole datagram or
+        frame, as bytes without the medium's framing) to the runtime: the leading ones
+        that only pass through to the pass-through path, the rest decoded and delivered
+        as by :meth:`_received` (or counted as malformed). ``extra``: bytes the medium
+        carried per message besides them (counted as received, as on the full path)."""
+        pass_through = self._pass_through
+        taken = pass_through(self.name, peer, wires) \
+            if pass_through is not None and not self._taps else 0
+        if taken:
+            done = wires if taken == len(wires) else wires[:taken]
+            self.counters.received(peer, sum(map(len, done)) + extra * taken, taken)
+            if done is wires:
+                return
+        packets: list[Packet] = []
+        nbytes = 0
+        for wire in wires[taken:]:
+            try:
+                packets += unpack_message(wire)
+            except DecodeError as exc:
+                self._malformed(peer, str(exc), wire)
+                continue
+            nbytes += len(wire) + extra
+        if packets:
+            self._received(peer, packets, nbytes)
 
     def _received(self, peer: Peer, packets: list[Packet], nbytes: int, *,
                   tapped: bool = False) -> None:

@@ -26,12 +26,26 @@ component's own counter (starting at 1), fragments it to the link MTU, and route
 known destination → unicast; wildcard → broadcast on every link; unknown destination →
 broadcast with ACK requested (JTS behaviour: the owner's ACK teaches the route).
 
+*Pass-through.* :meth:`Router.forward` takes datagrams that only pass through as their
+bytes (one general transport message each, as received) and decides for them without
+building a :class:`~edge_vis.jaus.transport.Packet`: the header fields it needs are read
+from the bytes, the duplicate check is the same table's, and the route comes from a
+cache of the full path's decisions per ``(link, peer, source, destination)``, emptied
+whenever anything those decisions read changes (the address book, static routes, relay
+switches, local components, links). It takes a batch only if the full path would have
+forwarded every message of it unchanged (no ACK/NAK, no local or broadcast address, a
+route already learned, the source's route unchanged, no duplicate), else none of it
+(:meth:`Router.receive` then handles the batch); counters, the duplicate table and the
+links' budgets and queues come out as on the full path, and what leaves is
+:class:`ForwardWires`, the same bytes in the same order.
+
 *Duplicates* (redundant paths, radio retries) are dropped when ``(source, destination,
 sequence, data flags, payload)`` was seen within ``duplicate_window`` s; a duplicate that asks
 for an ACK is ACKed again, since our first ACK was evidently lost. The table keeps one
-64-bit hash of that tuple per packet (two different packets sharing it within the window
-is a chance of about 1 in 10^10 at 65,536 entries; the payload hash is salted per process,
-so it cannot be provoked from outside). After a burst, once the table is down to an eighth
+64-bit hash of those fields per packet, taken over the packet's bytes from the destination
+on, plus the data flags (two different packets sharing it within the window is a chance
+of about 1 in 10^10 at 65,536 entries; the hash of bytes is salted per process, so it
+cannot be provoked from outside). After a burst, once the table is down to an eighth
 of its size, it is rebuilt small (:attr:`Router.compactions` counts it, so that the shell
 can hand the freed memory back to the system).
 
@@ -67,8 +81,18 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 
 from edge_vis.errors import EncodeError, LocalProtocolError
-from edge_vis.jaus.address import JausAddress
-from edge_vis.jaus.transport import JTS_MAX_PAYLOAD, AckNak, Broadcast, DataFlags, Packet
+from edge_vis.jaus.address import ADDRESSES, JausAddress, address_from_id
+from edge_vis.jaus.transport import (
+    HEADER,
+    JTS_MAX_PAYLOAD,
+    MIN_DATA_SIZE,
+    AckNak,
+    Broadcast,
+    DataFlags,
+    Packet,
+    encode_packet,
+    packet_from_wire,
+)
 from edge_vis.routing.link import Peer, format_peer
 from edge_vis.routing.traffic import LATEST_WINS_MAX_PRIORITY, QueueDrop, latest_wins_key
 
@@ -114,7 +138,24 @@ class DeliveryFailed:
     reason: str
 
 
-Action = SendPackets | Deliver | DeliveryFailed
+@dataclass(frozen=True, slots=True)
+class ForwardWires:
+    """Write general transport messages given as their bytes (as they were received, see
+    :meth:`Router.forward`) on link ``link`` to ``peer``."""
+
+    link: str
+    peer: Peer | None
+    wires: tuple[bytes, ...]
+
+
+Action = SendPackets | Deliver | DeliveryFailed | ForwardWires
+#: a pass-through decision: the source's route, the target link and peer
+_Decision = tuple["Route", str, Peer | None]
+
+#: a decision not made yet (see :meth:`Router.forward`)
+_UNDECIDED = object()
+#: ACK/NAK bits of the flags byte
+_ACK_BITS = 0x30
 
 
 class _NewSend:
@@ -136,6 +177,22 @@ class _NewSend:
 def _send_packets(link: str, peer: Peer | None, packets: tuple[Packet, ...],
                   urgent: bool = False) -> SendPackets:
     return _NewSend(link, peer, packets, urgent)  # type: ignore[return-value]
+
+
+class _NewWires:
+    """:class:`ForwardWires` built as :class:`_NewSend` builds :class:`SendPackets`."""
+
+    __slots__ = ForwardWires.__slots__  # type: ignore[attr-defined]
+
+    def __init__(self, link: str, peer: Peer | None, wires: tuple[bytes, ...]) -> None:
+        self.link = link
+        self.peer = peer
+        self.wires = wires
+        self.__class__ = ForwardWires  # type: ignore[assignment]
+
+
+def _forward_wires(link: str, peer: Peer | None, wires: tuple[bytes, ...]) -> ForwardWires:
+    return _NewWires(link, peer, wires)  # type: ignore[return-value]
 
 
 # -- configuration and state -----------------------------------------------------------
@@ -243,13 +300,17 @@ class Router:
         self._learned: dict[JausAddress, Route] = {}
         self._static: list[tuple[JausAddress, Route]] = []
         self._seen: dict[int, float] = {}
-        self._seen_order: deque[tuple[float, int]] = deque()
+        # the keys each call added, with their common expiry, oldest first
+        self._seen_order: deque[tuple[float, list[int]]] = deque()
         self._seen_peak = 0
         #: times the duplicate table was rebuilt small after a burst
         self.compactions = 0
         # static routes matched per destination (cleared when the static routes change)
         self._static_hits: dict[JausAddress, Route] = {}
         self._pending: dict[tuple[int, int], _Pending] = {}
+        # the pass-through path's decisions: (link, peer) -> (source id, destination id)
+        # -> (source's route, target link, target peer), or None: not for that path
+        self._decisions: dict[tuple[str, Peer], dict[tuple[int, int], _Decision | None]] = {}
         self._next_sweep: float | None = None
         self._reassembler = (
             Reassembler(timeout=self.config.reassembly_timeout) if Reassembler is not None else None
@@ -262,10 +323,12 @@ class Router:
         if address.is_broadcast:
             raise ValueError(f"a local component needs a concrete address, not {address}")
         self._local.add(address)
+        self._decisions.clear()
 
     def remove_local(self, address: JausAddress) -> None:
         """Stop delivering to ``address``."""
         self._local.discard(address)
+        self._decisions.clear()
 
     @property
     def local(self) -> frozenset[JausAddress]:
@@ -293,6 +356,7 @@ class Router:
             name, mtu, bandwidth_bps, overhead, queue_limit, burst, tokens=burst,
             latest_wins=latest_wins,
         )
+        self._decisions.clear()
 
     def remove_link(self, name: str) -> None:
         """Forget a link, its routes, relay switches and queue."""
@@ -301,6 +365,7 @@ class Router:
         self._learned = {a: r for a, r in self._learned.items() if r.link != name}
         self._static = [(a, r) for a, r in self._static if r.link != name]
         self._static_hits.clear()
+        self._decisions.clear()
 
     def set_relay(self, source: str, target: str, enabled: bool = True, *,
                   both_ways: bool = True) -> None:
@@ -310,12 +375,14 @@ class Router:
                 self._relay.add(pair)
             else:
                 self._relay.discard(pair)
+        self._decisions.clear()
 
     def add_route(self, pattern: JausAddress, link: str, peer: Peer | None) -> None:
         """Seed the address book: ``pattern`` (wildcards allowed) lives at ``(link, peer)``."""
         self._static.append((pattern, Route(link, peer, static=True)))
         self._static.sort(key=lambda item: _wildcards(item[0]))
         self._static_hits.clear()
+        self._decisions.clear()
 
     def lookup(self, address: JausAddress) -> Route | None:
         """Where ``address`` lives: a learned route, else the most specific static one."""
@@ -372,19 +439,20 @@ class Router:
         # one's decision; anything that changes the address book ends it
         fast_source: JausAddress | None = None
         fast_dest: JausAddress | None = None
-        fast_sid = fast_did = 0
         fast_batch: list[Packet] = []
+        added: list[int] = []  # keys entered in the duplicate table
         for packet in packets:
             source = packet.source
             dest = packet.destination
             if source is fast_source and dest is fast_dest and not packet.ack_nak:
-                key = hash((fast_sid, fast_did, packet.sequence, packet.data_flags,
-                            packet.payload))
+                wire = packet.wire
+                key = hash(wire[4:]) + (wire[3] >> 6) if wire is not None else \
+                    _duplicate_key(packet)
                 until = seen.get(key)
                 if until is None or until <= now:
                     if len(seen) < max_duplicates:
                         seen[key] = expiry
-                        seen_order.append((expiry, key))
+                        added.append(key)
                     else:
                         counters["duplicate table full"] += 1
                     fast_batch.append(packet)
@@ -392,8 +460,9 @@ class Router:
             if source in local:
                 counters["dropped: own source"] += 1
                 continue
-            sid, did = source.id, dest.id
-            key = hash((sid, did, packet.sequence, packet.data_flags, packet.payload))
+            wire = packet.wire
+            key = hash(wire[4:]) + (wire[3] >> 6) if wire is not None else \
+                _duplicate_key(packet)
             route = learned.get(source)
             until = seen.get(key)
             if until is not None and until > now:
@@ -406,7 +475,7 @@ class Router:
                 continue
             if len(seen) < max_duplicates:
                 seen[key] = expiry
-                seen_order.append((expiry, key))
+                added.append(key)
             else:
                 counters["duplicate table full"] += 1
             if not source.is_broadcast:
@@ -415,6 +484,7 @@ class Router:
                         del learned[next(iter(learned))]  # re-learned on its next packet
                         counters["routes forgotten: table full"] += 1
                     learned[source] = Route(link, peer, seen=now)
+                    self._decisions.clear()
                     fast_source = None
                 else:
                     route.seen = now
@@ -441,7 +511,7 @@ class Router:
                         batch = out.setdefault((route.link, route.peer), [])
                         batch.append(packet)
                         if not packet.ack_nak:
-                            fast_source, fast_dest, fast_sid, fast_did = source, dest, sid, did
+                            fast_source, fast_dest = source, dest
                             fast_batch = batch
                     else:
                         counters["dropped: relay off"] += 1
@@ -451,10 +521,142 @@ class Router:
                 counters["dropped: no route"] += 1
             for target in targets:
                 out.setdefault((target, None), []).append(packet)
+        if added:
+            seen_order.append((expiry, added))
         for (target, target_peer), batch in out.items():
             counters["forwarded"] += len(batch)
             self._queue(actions, target, target_peer, batch, now)
         return actions
+
+    def forward(self, link: str, peer: Peer, wires: Sequence[bytes], now: float
+                ) -> tuple[int, list[Action], bool]:
+        """The pass-through path (see the module docstring): route ``wires`` (general
+        transport messages as received on ``link`` from ``peer``, one each) without
+        decoding them, if every one of them only passes through.
+
+        Returns how many it took: all or none (then the caller hands them, decoded, to
+        :meth:`receive`, which decides exactly as if this had not been called); the
+        actions (:class:`ForwardWires`, or what the queues of a busy or paced link let
+        out); and whether :meth:`next_deadline` may have moved (something was queued).
+        Never raises.
+        """
+        if self._next_sweep is None or link not in self._links or not wires or \
+                min(map(len, wires)) < MIN_DATA_SIZE:
+            return 0, [], False  # the full path sets the sweep up, or counts the drop
+        decisions = self._decisions.get((link, peer))
+        if decisions is None:
+            decisions = self._decisions[(link, peer)] = {}
+        seen = self._seen
+        if len(seen) + len(wires) > self.config.max_duplicates:
+            return 0, [], False  # the full path counts what the table cannot hold
+        seen_order = self._seen_order
+        if seen_order and seen_order[0][0] <= now:
+            self._expire_duplicates(now, 64)  # as receive(): a little per call
+        expiry = now + self.config.duplicate_window
+        unpack = HEADER.unpack_from
+        added: list[int] = []  # the duplicate table's new keys, one per message taken
+        target: tuple[str, Peer | None] | None = None  # where the first message goes
+        several = False  # the messages go to several (link, peer)
+        last_src = last_dst = last_flags = priority = -1
+        one_priority = True
+        for wire in wires:
+            type_hc, length, flags, dst, src = unpack(wire)
+            if length != len(wire) or type_hc & 0xC0:
+                break  # header compression, malformed: the full path
+            if src != last_src or dst != last_dst or flags != last_flags:
+                if flags & _ACK_BITS:
+                    break  # ACK/NAK: the full path
+                if priority < 0:
+                    priority = flags & 3
+                elif flags & 3 != priority:
+                    one_priority = False
+                found = decisions.get((src, dst), _UNDECIDED)
+                if found is _UNDECIDED:
+                    found = decisions[(src, dst)] = self._decide(link, peer, src, dst)
+                if found is None:
+                    break
+                decision: _Decision = found  # type: ignore[assignment]
+                decision[0].seen = now  # the source's route, as receive() does
+                if target is None:
+                    target = decision[1:]
+                elif decision[1:] != target:
+                    several = True
+                last_src, last_dst, last_flags = src, dst, flags
+            key = hash(wire[4:]) + (flags >> 6)  # as receive()
+            until = seen.get(key)
+            if until is not None and until > now:
+                break  # a duplicate: the full path counts it
+            seen[key] = expiry
+            added.append(key)
+        taken = len(added)
+        if taken != len(wires):
+            # all or nothing: the full path batches by destination over the whole call,
+            # which a split would reorder on a shared medium; what was entered goes
+            for key in added:
+                del seen[key]
+            return 0, [], False
+        seen_order.append((expiry, added))
+        assert target is not None
+        groups: dict[tuple[str, Peer | None], Sequence[bytes]] = {target: wires}
+        if several:  # one batch per (link, peer), in order, as receive() makes them
+            groups = {}
+            for wire in wires:
+                _, _, _, dst, src = unpack(wire)
+                found = decisions[(src, dst)]
+                assert found is not None
+                groups.setdefault(found[1:], []).append(wire)  # type: ignore[attr-defined]
+        counters = self.counters
+        counters["received"] += taken
+        counters["forwarded"] += taken
+        actions: list[Action] = []
+        queued = False
+        links = self._links
+        for (target_link, target_peer), batch in groups.items():
+            state = links[target_link]
+            if not state.busy and not state.queued_bytes and not state.latest_wins and \
+                    max(map(len, batch)) - MIN_DATA_SIZE <= state.mtu:
+                rate = state.bandwidth_bps
+                if rate is None:
+                    state.sent += len(batch)
+                    actions.append(_forward_wires(target_link, target_peer, tuple(batch)))
+                    continue
+                if one_priority:  # Router._within_budget, on the bytes
+                    if state.refilled is not None:
+                        state.tokens = min(state.burst,
+                                           state.tokens + (now - state.refilled) * rate / 8)
+                    state.refilled = now
+                    overhead = state.overhead
+                    total = sum(map(len, batch)) + overhead * len(batch)
+                    if total <= state.queue_limit and \
+                            state.tokens - (total - len(batch[-1]) - overhead) >= -1e-9:
+                        state.tokens -= total
+                        state.sent += len(batch)
+                        actions.append(_forward_wires(target_link, target_peer, tuple(batch)))
+                        continue
+            # what the queues decide: exactly as for the same packets on the full path
+            self._queue(actions, target_link, target_peer, list(map(packet_from_wire, batch)),
+                        now)
+            queued = True
+        return taken, actions, queued
+
+    def _decide(self, link: str, peer: Peer, src: int, dst: int
+                ) -> _Decision | None:
+        """Where :meth:`receive` sends a packet from ``src`` to ``dst`` that arrived on
+        ``link`` from ``peer``, if all it does is forward it unchanged and learn nothing
+        new (the source's route is already this one); else None."""
+        source = ADDRESSES.get(src) or address_from_id(src)
+        dest = ADDRESSES.get(dst) or address_from_id(dst)
+        local = self._local
+        if source in local or dest in local or source.is_broadcast or dest.is_broadcast:
+            return None
+        source_route = self._learned.get(source)
+        if source_route is None or source_route.link != link or source_route.peer != peer:
+            return None
+        route = self._learned.get(dest) or self._static_hits.get(dest) or self.lookup(dest)
+        if route is None or route.link == link or route.link not in self._links or \
+                (link, route.link) not in self._relay:
+            return None
+        return source_route, route.link, route.peer
 
     # -- input from local components -----------------------------------------------------
     def send(self, packet: Packet, now: float, *, ack: bool = False,
@@ -580,6 +782,8 @@ class Router:
             self._next_sweep = now + (0.01 if more else self.config.sweep_interval)
             limit = now - self.config.peer_timeout
             stale = [a for a, r in self._learned.items() if r.seen < limit]
+            if stale:
+                self._decisions.clear()
             for address in stale:
                 del self._learned[address]
                 log.info("forgot %s: silent for %.0f s", address, self.config.peer_timeout)
@@ -649,19 +853,21 @@ class Router:
             self.counters["naks received"] += 1
 
     def _expire_duplicates(self, now: float, limit: int) -> bool:
-        """Forget up to ``limit`` expired entries; True when more are due.
+        """Forget about ``limit`` expired entries (those of whole calls, oldest first);
+        True when more are due.
 
         Entries are also checked against ``now`` when looked up, so forgetting late
         is harmless; it only bounds memory.
         """
         order = self._seen_order
         seen = self._seen
-        for _ in range(limit):
-            if not order or order[0][0] > now:
-                return False
-            expiry, key = order.popleft()
-            if seen.get(key) == expiry:
-                del seen[key]
+        get = seen.get
+        while limit > 0 and order and order[0][0] <= now:
+            expiry, keys = order.popleft()
+            for key in keys:
+                if get(key) == expiry:
+                    del seen[key]
+            limit -= len(keys)
         return bool(order) and order[0][0] <= now
 
     def _compact_duplicates(self) -> None:
@@ -700,8 +906,8 @@ class Router:
                 state.sent += len(packets)
                 actions.append(_send_packets(link, peer, tuple(packets)))
                 return
-            if not state.latest_wins and self._within_budget(state, packets, sizes, now,
-                                                             rate):
+            if not state.latest_wins and self._within_budget(
+                    state, [p.priority & 3 for p in packets], sizes, now, rate):
                 state.sent += len(packets)
                 actions.append(_send_packets(link, peer, tuple(packets)))
                 return
@@ -722,17 +928,15 @@ class Router:
         self._drain(state, now, actions)
 
     @staticmethod
-    def _within_budget(state: _LinkState, packets: Sequence[Packet], sizes: list[int],
+    def _within_budget(state: _LinkState, priorities: list[int], sizes: list[int],
                        now: float, rate: float) -> bool:
         """Charge ``packets`` to an idle paced link's budget if the queue would let them
         all leave now, in this order (one priority, the budget not spent before the
         last, no more than the queue holds): then they skip the queue, which would change
         nothing but the cost."""
         state.refill(now, rate)
-        priority = packets[0].priority & 3
-        for p in packets:
-            if (p.priority & 3) != priority:
-                return False
+        if priorities.count(priorities[0]) != len(priorities):
+            return False
         overhead = 14 + state.overhead
         total = sum(sizes) + overhead * len(sizes)
         last = sizes[-1] + overhead
@@ -803,6 +1007,18 @@ def _ack(packet: Packet) -> Packet:
         destination=packet.source, source=packet.destination, payload=b"",
         sequence=packet.sequence, priority=packet.priority, ack_nak=AckNak.ACK,
     )
+
+
+def _duplicate_key(packet: Packet) -> int:
+    """The duplicate table's key of a packet not decoded from the wire (the key of one
+    that was is the same, computed inline from ``packet.wire``): its data flags and its
+    message bytes from the destination on (addresses, payload, sequence number)."""
+    try:
+        wire = encode_packet(packet)
+    except EncodeError:
+        return hash((packet.data_flags, packet.destination.id, packet.source.id,
+                     packet.sequence, packet.payload))
+    return hash(wire[4:]) + (wire[3] >> 6)
 
 
 def _wildcards(address: JausAddress) -> int:

@@ -21,7 +21,14 @@ from typing import ClassVar
 from edge_vis.errors import DecodeError
 from edge_vis.jaus.transport import Packet, pack_datagram, unpack_datagram
 from edge_vis.routing.link import Link, LinkOptions, LinkUrl, Peer
-from edge_vis.routing.router import Action, Deliver, DeliveryFailed, Router, SendPackets
+from edge_vis.routing.router import (
+    Action,
+    Deliver,
+    DeliveryFailed,
+    ForwardWires,
+    Router,
+    SendPackets,
+)
 from edge_vis.shell.memory import release_memory
 from edge_vis.shell.sharedloop import on_loop_thread
 
@@ -123,11 +130,15 @@ class RouterNode:
     from the links into the router with the loop's clock as ``now``, carries out the
     actions, and keeps the router's timer armed. Delivered messages are put on
     :attr:`delivered` (an :class:`asyncio.Queue` of :class:`~edge_vis.routing.router.Deliver`),
-    failures on :attr:`failures`. Used by tests, benches and demos.
+    failures on :attr:`failures`. Used by tests, benches and demos. ``pass_through=False``
+    leaves the router's pass-through path unused (every packet decoded and routed by
+    :meth:`~edge_vis.routing.router.Router.receive`), to compare the two.
     """
 
-    def __init__(self, router: Router, links: Sequence[Link]) -> None:
+    def __init__(self, router: Router, links: Sequence[Link], *, pass_through: bool = True
+                 ) -> None:
         self.router = router
+        self.pass_through = pass_through
         self.links = {link.name: link for link in links}
         self.delivered: asyncio.Queue[Deliver] = asyncio.Queue()
         self.failures: list[DeliveryFailed] = []
@@ -141,7 +152,8 @@ class RouterNode:
         for link in self.links.values():
             self.router.add_link(link.name, mtu=link.mtu, bandwidth_bps=link.bandwidth_bps,
                                  overhead=link.overhead)
-            await link.open(self._received)
+            await link.open(self._received,
+                            pass_through=self._pass_through if self.pass_through else None)
 
     async def stop(self) -> None:
         """Close every link and stop the timer."""
@@ -160,14 +172,25 @@ class RouterNode:
         self._execute(self.router.send(packet, self.now(), ack=ack, urgent=urgent))
 
     def _received(self, link: str, peer: Peer, packets: list[Packet]) -> None:
-        actions = self.router.receive(link, peer, packets, self.now())
+        self._carry(self.router.receive(link, peer, packets, self.now()))
+
+    def _pass_through(self, link: str, peer: Peer, wires: list[bytes]) -> int:
+        taken, actions, queued = self.router.forward(link, peer, wires, self.now())
+        if queued:
+            self._carry(actions)
+        else:
+            for action in actions:  # only ForwardWires: no deadline moved
+                self._send(action)  # type: ignore[arg-type]
+        return taken
+
+    def _carry(self, actions: list[Action]) -> None:
         if on_loop_thread(self._loop):
             self._execute(actions)
             return
         # a link thread (its lock held): send now, leave the rest to the loop
         rest: list[Action] = []
         for action in actions:
-            if isinstance(action, SendPackets):
+            if isinstance(action, SendPackets | ForwardWires):
                 self._send(action)
             else:
                 rest.append(action)
@@ -177,18 +200,20 @@ class RouterNode:
             assert self._loop is not None
             self._loop.call_soon_threadsafe(self._execute, rest)
 
-    def _send(self, action: SendPackets) -> None:
+    def _send(self, action: SendPackets | ForwardWires) -> None:
         link = self.links.get(action.link)
         if link is None:
             return
-        if action.urgent:
+        if isinstance(action, ForwardWires):
+            link.send_wires(action.wires, action.peer)
+        elif action.urgent:
             link.send_urgent(action.packets, action.peer)
         else:
             link.send(action.packets, action.peer)
 
     def _execute(self, actions: list[Action]) -> None:
         for action in actions:
-            if isinstance(action, SendPackets):
+            if isinstance(action, SendPackets | ForwardWires):
                 self._send(action)
             elif isinstance(action, Deliver):
                 self.delivered.put_nowait(action)
