@@ -23,11 +23,12 @@ table; asserts nothing. ``--only`` runs some rows (comma-separated: ``loopback``
   rate does not depend on the size and a bigger one takes minutes).
 * ``forwarder``: a relay (``ImageService`` with ``forward``) passes a file on to an
   operator-side receiver through the same proxy, with 2 % loss and with none, adaptive
-  lanes, no flags; timed from the relay's verification to the operator's.
+  lanes, no flags; timed from the relay's verification (its ``TransferStatus``, before
+  the relay's thumbnail and ``ImageProduct``) to the operator's ``ImageProduct``.
 * ``pull``: the relay fetches an announced image from a vehicle's image server
   (``serve-images``) through the same lossy proxy, no flags (lanes paced by the image
-  server); timed from the announcement to the relay's verification, the file size of
-  the lanes' rows.
+  server); timed from the announcement to the relay's ``ImageProduct`` of the verified
+  file, the file size of the lanes' rows.
 * ``resume``: a loopback transfer held to 80 Mbit/s is cut (receiver closes every
   connection); the figure is the time from the cut until the receiver has accepted the
   resumed transfer at its offset, with the sender's default backoff.
@@ -132,18 +133,21 @@ def forwarded(folder: Path, size: int, loss: float) -> float:
     path, manifest = _file(folder, size, f"fwd{run}.bin")
     marks: dict[str, float] = {}
 
-    def seen(where: str) -> object:
+    def seen(where: str, topic_seen: str, state: str | None = None) -> object:
         def publish(topic: str, sample: dict) -> None:
-            if topic == "ImageProduct" and where not in marks:
+            if topic == topic_seen and where not in marks and (
+                    state is None or sample.get("state") == state):
                 marks[where] = time.perf_counter()
         return publish
 
-    with UdtBulkChannel.ImageService(folder / f"operator{run}", publish=seen("operator"),
-                                     publish_data=False) as ops, \
+    with UdtBulkChannel.ImageService(folder / f"operator{run}", publish_data=False,
+                                     publish=seen("operator", "ImageProduct")) as ops, \
             separate_process(ops.address, loss=loss, delay=0.020, rate_bps=10e6,
                              queue_bytes=64 * 1024, seed=1, lifetime=600) as (address, _c), \
             UdtBulkChannel.ImageService(folder / f"relay{run}", forward=[address],
-                                        publish=seen("relay"), publish_data=False) as relay:
+                                        publish=seen("relay", "TransferStatus",
+                                                     "TRANSFER_COMPLETE"),
+                                        publish_data=False) as relay:
         result = UdtBulkChannel.send_image(path, relay.address, manifest=manifest, lanes=1)
         deadline = time.monotonic() + 180
         while "operator" not in marks and time.monotonic() < deadline:

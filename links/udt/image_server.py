@@ -5,7 +5,8 @@ vehicle announce an image connects, sends FETCH with the file name (or one lane'
 of it), and the server answers with that file's manifest and data exactly as
 ``send-image`` would push them; the fetcher's spool decides where to resume. A file is
 hashed once per (size, modification time). Names are plain file names inside the
-directory (no paths, no hidden or partial files), so nothing outside it can be read.
+directory (no paths, no hidden or partial files), so nothing outside it can be read. The
+files present at start are hashed ahead, in the background.
 
 A fetcher pulls a large file as segments on parallel connections (lanes). The server
 sends the data, so it paces them: the lanes one fetcher opened for one file are paced
@@ -53,6 +54,8 @@ from links.udt.transfer import (
 
 log = logging.getLogger(__name__)
 
+MANIFESTS_KEPT = 256
+"""Files whose manifest (hash) is kept, and hashed ahead at start."""
 #: (fetcher's host, file name, segment count): the lanes of one fetch
 FetchKey = tuple[str, str, int]
 
@@ -104,6 +107,7 @@ class ImageServer(UdtService):
         self.max_connections = max_connections
         super().__init__(listen)
         self._lock = threading.Lock()
+        self._hashing = threading.Lock()  # one file hashed at a time, each once
         self._manifests: dict[str, tuple[tuple[int, int], Manifest]] = {}
         self._fetches: dict[FetchKey, _PacedFetch] = {}
         self._open = 0
@@ -115,7 +119,8 @@ class ImageServer(UdtService):
     def start(self) -> ImageServer:
         self._listener = listen(self._bind, linger=0, max_rate_bps=self.max_rate_bps or 0)
         for target, name in ((self._accept_loop, "udt-serve-accept"),
-                             (self._pace_loop, "udt-serve-pace")):
+                             (self._pace_loop, "udt-serve-pace"),
+                             (self._warm, "udt-serve-warm")):
             t = threading.Thread(target=target, name=name, daemon=True)
             t.start()
             self._threads.append(t)
@@ -134,12 +139,34 @@ class ImageServer(UdtService):
             known = self._manifests.get(name)
         if known is not None and known[0] == stamp:
             return known[1]
-        m = manifest_for_file(path, vehicle_id=self.vehicle_id)
-        with self._lock:
-            self._manifests[name] = (stamp, m)
-            while len(self._manifests) > 256:
-                del self._manifests[next(iter(self._manifests))]
+        with self._hashing:  # lanes asking together: the first hashes, the others wait
+            with self._lock:
+                known = self._manifests.get(name)
+            if known is not None and known[0] == stamp:
+                return known[1]
+            m = manifest_for_file(path, vehicle_id=self.vehicle_id)
+            with self._lock:
+                self._manifests[name] = (stamp, m)
+                while len(self._manifests) > MANIFESTS_KEPT:
+                    del self._manifests[next(iter(self._manifests))]
         return m
+
+    def _warm(self) -> None:
+        """Hash the files served at start, newest first, so a fetch's first answer does
+        not wait for the hash (the radio would stand idle meanwhile)."""
+        try:
+            entries = sorted((p for p in self.directory.iterdir() if p.is_file()),
+                             key=lambda p: p.stat().st_mtime_ns, reverse=True)
+        except OSError as exc:
+            log.warning("cannot list %s: %s", self.directory, exc)
+            return
+        for path in entries[:MANIFESTS_KEPT]:
+            if self._stop.is_set():
+                return
+            try:
+                self.manifest(path.name)
+            except (ManifestError, OSError) as exc:
+                log.debug("not hashed ahead: %s: %s", path.name, exc)
 
     def _admit(self, sock: Any) -> bool:
         with self._lock:

@@ -29,7 +29,7 @@ from links.udt.protocol import (
 )
 from links.udt.puller import Puller
 from links.udt.spool import Spool
-from links.udt.thumbnail import NoThumbnail, thumbnail
+from links.udt.thumbnail import HEAD, NoThumbnail, check_head, thumbnail
 from links.udt.transfer import (
     BulkReceiver,
     BulkSender,
@@ -253,7 +253,10 @@ class ImageService:
         if manifest.size > THUMBNAIL_MAX_FILE:
             return b""
         try:
-            thumb = thumbnail(path.read_bytes())
+            with open(path, "rb") as fh:  # a format without thumbnails is not read whole
+                check_head(fh.read(HEAD))
+                fh.seek(0)
+                thumb = thumbnail(fh.read())
         except NoThumbnail as exc:
             log.info("no thumbnail of %s: %s", manifest.name, exc)
             return b""
@@ -274,6 +277,8 @@ class ImageService:
     def _verified(self, manifest: Manifest, path: Path) -> None:
         self.puller.arrived(manifest.sha256)
         self._progress.pop(manifest.sha256, None)
+        for f in self.forwarders:  # the spool holds it verified: the radio need not wait
+            f.wake()               # for the thumbnail and the bus
         thumb = self._thumbnail(manifest, path)
         with self._publish_lock:
             product = self.index.transferred(manifest, thumb)
@@ -287,5 +292,3 @@ class ImageService:
                     self._emit(products.IMAGE_DATA, {
                         **products.image_data(manifest, index, count, data),
                         "vehicle_id": vehicle_id, "image_id": image_id})
-        for f in self.forwarders:
-            f.wake()

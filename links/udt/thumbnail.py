@@ -41,16 +41,27 @@ def thumbnail(data: bytes, side: int = SIDE) -> bytes:
     return encode_png(*shrink(decode(data), side))
 
 
+HEAD = 8
+"""Leading bytes of a file that say whether it can get a thumbnail (:func:`check_head`)."""
+
+
+def check_head(head: bytes) -> None:
+    """:class:`NoThumbnail` unless a file starting with ``head`` (its first ``HEAD`` bytes)
+    is of a format decoded here: a caller need not read a large file it cannot use."""
+    if head[:2] in (b"P2", b"P3", b"P5", b"P6", b"BM") or head[:8] == PNG_SIGNATURE:
+        return
+    kind = {b"\xff\xd8": "JPEG", b"II": "TIFF", b"MM": "TIFF", b"GI": "GIF"}.get(head[:2])
+    raise NoThumbnail(f"{kind or 'this format'} needs a codec the standard library lacks")
+
+
 def decode(data: bytes) -> Picture:
     """The pixels of a PGM/PPM, BMP or PNG file (see module doc)."""
-    if data[:2] in (b"P2", b"P3", b"P5", b"P6"):
-        return _pnm(data)
+    check_head(data[:HEAD])
     if data[:2] == b"BM":
         return _bmp(data)
     if data[:8] == PNG_SIGNATURE:
         return _png(data)
-    kind = {b"\xff\xd8": "JPEG", b"II": "TIFF", b"MM": "TIFF", b"GI": "GIF"}.get(data[:2])
-    raise NoThumbnail(f"{kind or 'this format'} needs a codec the standard library lacks")
+    return _pnm(data)
 
 
 def shrink(picture: Picture, side: int = SIDE) -> Picture:
