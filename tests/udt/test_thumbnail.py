@@ -8,7 +8,16 @@ import zlib
 
 import pytest
 
-from links.udt.thumbnail import SIDE, NoThumbnail, decode, encode_png, shrink, thumbnail
+from links.udt.thumbnail import (
+    HEAD,
+    SIDE,
+    NoThumbnail,
+    check_head,
+    decode,
+    encode_png,
+    shrink,
+    thumbnail,
+)
 
 
 def grey(width: int, height: int) -> bytes:
@@ -125,3 +134,17 @@ def test_receiver_keeps_a_thumbnail_next_to_each_verified_image(tmp_path):
     assert (tmp_path / "ops" / "uuv1" / "sonar.pgm.thumb.png").read_bytes() == thumb
     assert not products["photo.jpg"].get("thumbnail_png")
     assert not (tmp_path / "ops" / "uuv1" / "photo.jpg.thumb.png").exists()
+
+
+@pytest.mark.parametrize("head, supported", [
+    (b"\x89PNG\r\n\x1a\n", True), (b"P5 200 1", True), (b"P3\n2 2 2", True), (b"BM\x00\x00", True),
+    (b"\xff\xd8\xff\xe0\x00\x10JF", False), (b"II*\x00\x08\x00\x00\x00", False),
+    (b"GIF89a\x01\x00", False), (b"XTF sona", False), (b"", False),
+])
+def test_the_first_bytes_say_whether_a_file_can_get_a_thumbnail(head, supported):
+    # a relay reads a 64 MiB JPEG's first bytes, not the whole file, to learn it gets none
+    if supported:
+        check_head(head[:HEAD])
+    else:
+        with pytest.raises(NoThumbnail, match="codec"):
+            check_head(head[:HEAD])

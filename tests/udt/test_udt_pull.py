@@ -9,6 +9,7 @@ publishes one product per image whatever arrives first.
 from __future__ import annotations
 
 import logging
+import os
 import threading
 import time
 from pathlib import Path
@@ -227,3 +228,23 @@ def test_a_large_image_is_fetched_on_parallel_lanes(tmp_path: Path, make_file, c
               if r.getMessage().startswith("served atr-21.png")]
     assert [m for m in served if m.endswith("stored; SHA-256 verified")]
     assert not [m for m in served if "segment" not in m]
+
+
+def test_the_image_server_hashes_ahead_and_again_when_a_file_changes(tmp_path: Path,
+                                                                       make_file):
+    path, old = make_file(2 << 20, "atr-11.png")
+    with UdtBulkChannel.ImageServer(path.parent) as server:
+        # hashed in the background at start, before anyone asks
+        wait_for(lambda: "atr-11.png" in server._manifests, 10, "the file hashed ahead")
+        assert server._manifests["atr-11.png"][1].sha256 == sha(old)
+        new = old[::-1]
+        path.write_bytes(new)  # rewritten after it was hashed: served as it is now
+        os.utime(path, ns=(time.time_ns(), time.time_ns() + 1_000_000_000))
+        bus = Bus()
+        with service(tmp_path, bus, server.address) as relay:
+            relay.announce(announcement(new, 11))
+            wait_for(lambda: any(p.get("transfer_id") for p in bus.of("ImageProduct")), 30,
+                     "the rewritten image")
+    (stored,) = (tmp_path / "relay").rglob("atr-11.png")
+    assert stored.read_bytes() == new
+    assert not [s for s in bus.of("TransferStatus") if "mismatch" in s["error"]]

@@ -381,3 +381,42 @@ def test_sender_reports_a_receiver_that_never_answers(make_file):
     assert "no progress" in result.reason
     assert time.monotonic() - started < 10
     assert os.path.exists(path)
+
+
+def _slow_png(side: int = 2000) -> bytes:
+    """A PNG whose every row uses the Paeth filter: a few KiB that take the standard
+    library's decoder about a second or two to thumbnail."""
+    raw = b"".join(b"\x04" + bytes([y & 0xFF]) * side for y in range(side))
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(
+            ">I", __import__("zlib").crc32(kind + data) & 0xFFFFFFFF)
+
+    return (b"\x89PNG\r\n\x1a\n"
+            + chunk(b"IHDR", struct.pack(">IIBBBBB", side, side, 8, 0, 0, 0, 0))
+            + chunk(b"IDAT", __import__("zlib").compress(raw)) + chunk(b"IEND", b""))
+
+
+def test_forwarding_starts_on_verification_not_after_the_thumbnail(tmp_path: Path):
+    # the relay's thumbnail of this picture takes a second or more: the operator side must
+    # not wait for it (nor for the relay's own announcement)
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "slow.png").write_bytes(_slow_png())
+    seen: dict[str, float] = {}
+
+    def mark(where: str, topic_seen: str, state: str | None = None):
+        def publish(topic: str, sample: dict) -> None:
+            if topic == topic_seen and (state is None or sample["state"] == state):
+                seen.setdefault(where, time.monotonic())
+        return publish
+
+    with UdtBulkChannel.ImageService(tmp_path / "ops", publish_data=False, publish=mark(
+            "operator verified", "TransferStatus", "TRANSFER_COMPLETE")) as ops, \
+            UdtBulkChannel.ImageService(tmp_path / "relay", forward=[ops.address],
+                                        publish_data=False,
+                                        publish=mark("relay product", "ImageProduct")) as relay:
+        assert UdtBulkChannel.send_image(src / "slow.png", relay.address, vehicle_id="uuv1").ok
+        wait_for(lambda: len(seen) == 2, 30, "the relay's product and the operator's copy")
+    assert seen["operator verified"] < seen["relay product"], seen
+    assert (tmp_path / "ops" / "uuv1" / "slow.png.thumb.png").exists()
