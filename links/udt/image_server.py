@@ -108,6 +108,7 @@ class ImageServer(UdtService):
         super().__init__(listen)
         self._lock = threading.Lock()
         self._hashing = threading.Lock()  # one file hashed at a time, each once
+        self._changed = threading.Event()  # a lane served its segment: pace again now
         self._manifests: dict[str, tuple[tuple[int, int], Manifest]] = {}
         self._fetches: dict[FetchKey, _PacedFetch] = {}
         self._open = 0
@@ -175,7 +176,11 @@ class ImageServer(UdtService):
         return not busy
 
     def _pace_loop(self) -> None:
-        while not self._stop.wait(TICK):
+        """Every ``TICK``, and at once when a lane has served a segment (its share goes
+        to the lanes still sending, as :class:`~links.udt.lane_run.LaneRun` does)."""
+        while not self._stop.is_set():
+            self._changed.wait(TICK)
+            self._changed.clear()
             now = time.monotonic()
             with self._lock:
                 for fetch in self._fetches.values():
@@ -284,6 +289,7 @@ class ImageServer(UdtService):
                 with self._lock:
                     fetch.served(sender, m.length if isinstance(result, TransferResult)
                                  and result.ok else 0)
+                self._changed.set()
         if isinstance(result, int) or result is None:
             self.counters["interrupted"] += 1
             raise ConnectionLost(f"{event.name} interrupted")
