@@ -81,11 +81,16 @@ class _PacedFetch:
 
     def tick(self, now: float) -> None:
         busy = 0
+        trips = []
         for sender, (segment, seen) in list(self.lanes.items()):
             ack = sender.acknowledged()
             if segment is not None and ack is not None and ack[0] == segment:
                 self.lanes[sender] = (segment, max(seen, ack[1]))
                 busy += ack[2]
+                if ack[2] and sender.round_trip():
+                    trips.append(sender.round_trip())
+        if trips:  # the lanes share the radio's queue: the least says it (as LaneRun)
+            self.rate.control.smoothed(min(trips))
         share = self.rate.share(now, self.done + sum(a for _, a in self.lanes.values()), busy)
         for sender in self.lanes:
             sender.cap(share)
