@@ -223,8 +223,8 @@ async def round_trip(ocu: Ocu, robot: Robot, seq: int) -> None:
 def test_forwarding_carries_a_peer_on_udp_to_a_robot_on_serial_and_back() -> None:
     """``forward = [["lan", "radio"]]`` with the UDP link's ``cycle=0.02&thread=1``: a
     query from an OCU on the LAN reaches the robot on the radio, the robot's answer comes
-    back, and a stream that follows (both ends known now: the pass-through path) arrives
-    whole and in order."""
+    back, and a stream that follows (both ends known now: the pass-through path, which
+    the runtime offers its links) arrives whole and in order."""
     robot = Robot()
     port = free_port((HOST, OCU_IP))
     ocu = Ocu(port)
@@ -234,6 +234,15 @@ def test_forwarding_carries_a_peer_on_udp_to_a_robot_on_serial_and_back() -> Non
     async def scenario() -> None:
         runtime = Runtime(profile, publisher_factory=None)
         await runtime.start()
+        taken: list[int] = []
+        forward = runtime.router.forward
+
+        def counted(*args: Any) -> Any:
+            result = forward(*args)
+            taken.append(result[0])
+            return result
+
+        runtime.router.forward = counted  # type: ignore[method-assign]
         try:
             await round_trip(ocu, robot, 1)
             stream = [message(ROBOT, OCU, QUERY + bytes((i,)), 100 + i) for i in range(50)]
@@ -242,6 +251,7 @@ def test_forwarding_carries_a_peer_on_udp_to_a_robot_on_serial_and_back() -> Non
             await until(lambda: len(robot.from_ocu()) >= 51)
             assert robot.from_ocu()[1:] == stream
             assert runtime.router.counters["forwarded"] >= 52
+            assert sum(taken) >= 40  # the stream went the pass-through path
         finally:
             await runtime.stop()
 
@@ -326,3 +336,34 @@ any_operator = true
     assert main(["check", str(path)]) != 0
     out = capsys.readouterr()
     assert "routing.forward[0]: expected an array of str, got str 'lan'" in out.out + out.err
+
+
+def test_a_reload_forwarding_to_a_link_not_yet_open_says_it_needs_a_restart(
+        caplog: pytest.LogCaptureFixture) -> None:
+    """A reload that adds a link and forwards to it: links open at start, so the relay
+    forwards only between the open ones and logs that the rest waits for a restart."""
+    robot = Robot()
+    port = free_port((HOST, OCU_IP))
+    data = profile_data(port, robot, routing={"forward": [["lan", "radio"]]})
+    before = from_mapping(data, file="site.toml")
+    data["links"]["sat"] = {"url": f"udp://{HOST}:{free_port((HOST,))}?multicast=off"}
+    data["routing"] = {"forward": [["lan", "radio", "sat"]]}
+    after = from_mapping(data, file="site.toml")
+
+    async def scenario() -> None:
+        runtime = Runtime(before, publisher_factory=None)
+        await runtime.start()
+        try:
+            result = Reloader(runtime, lambda: after).reload()
+            assert result is not None and "links" in result.restart_needed
+            assert runtime.forwarding == {("lan", "radio"), ("radio", "lan")}
+            assert "routing.forward: link 'sat' is not open (links are opened at start)" \
+                in caplog.text
+        finally:
+            await runtime.stop()
+
+    try:
+        with caplog.at_level("WARNING"):
+            run(scenario())
+    finally:
+        robot.close()
