@@ -332,6 +332,10 @@ any_operator = true
         f"{path}: routing.forward[3]: name at least two links to forward between, "
         'e.g. ["lan", "radio"]',
     ])
+    good = path.read_text().replace(', ["lan", "lan"], ["radio", "sat"], ["lan"]', "")
+    path.write_text(good)
+    assert main(["check", str(path)]) == 0
+    assert ", forwarding between lan and radio" in capsys.readouterr().out
     path.write_text(path.read_text().replace("forward = [", 'forward = ["lan", '))
     assert main(["check", str(path)]) != 0
     out = capsys.readouterr()
