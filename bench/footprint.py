@@ -7,6 +7,7 @@
     .venv/bin/python bench/footprint.py --only forwarder --burst 0 --cycles 2 --paths serial:2
     .venv/bin/python bench/footprint.py --only forwarder --burst 0 --cycles 10 \
         --paths serial:10,thread:10,bare:10,tbare:10          # the link thread beside the loop
+    .venv/bin/python bench/footprint.py --only run            # edge-vis run forwarding
 
 Parts, each in its own process so that one does not colour another's memory:
 
@@ -44,6 +45,16 @@ Parts, each in its own process so that one does not colour another's memory:
    modules a second, idle relay has loaded (asked for with SIGUSR1): what ``edge-vis run``
    costs before it holds any data of its own (not with ``--bundle``).
 
+4. **edge-vis run forwarding** (``--only run``, or after the relay part): ``edge-vis run``
+   itself (DDS on unless ``--no-dds``, every translator) with a profile whose ``[routing]
+   forward = [["lan", "radio"]]`` joins a UDP link (``cycle=0.02&thread=1``) and a serial
+   link on a pty, beside part 1's forwarder with the same links, in the same run: idle CPU,
+   then 1,000 msg/s offered from a JAUS source on UDP to a component on the serial side
+   (which spoke once first, so its route is learned, as a robot's is). Both processes are
+   pinned to one core; the relay's CPU is its own ``getrusage`` (all threads), written to
+   a file when it gets SIGUSR2; us/message = CPU seconds of the window / messages
+   delivered (idle included: the relay's discovery, link status and DDS heartbeats).
+
 Figures, not pass/fail; the targets are printed beside them.
 """
 
@@ -65,10 +76,11 @@ from collections import Counter
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from forwarded import TARGET, Sink, message  # bench/forwarded.py
+from forwarded import SOURCE, TARGET, Sink, message, stamp_of  # bench/forwarded.py
 
 from edge_vis.catalogue import default_catalogue
 from edge_vis.jaus.address import JausAddress
+from edge_vis.jaus.serial_framing import SerialFrame
 from edge_vis.jaus.transport import unpack_datagram
 
 RELAY_IP = "127.0.62.1"
@@ -564,6 +576,176 @@ def instructions_part(args: argparse.Namespace) -> list[tuple[str, str, str]]:
     return rows
 
 
+# -- part 4: edge-vis run forwarding -------------------------------------------------------
+
+#: runs ``edge-vis`` pinned to core 0; on SIGUSR2 writes ``utime stime`` (its getrusage,
+#: every thread) to argv[1]
+RELAY_REPORTING_USAGE = """
+import os, resource, signal, sys
+out = sys.argv.pop(1)
+if (os.cpu_count() or 1) > 1:
+    os.sched_setaffinity(0, {0})
+def usage(*_):
+    ru = resource.getrusage(resource.RUSAGE_SELF)
+    with open(out + ".part", "w") as f:
+        f.write(f"{ru.ru_utime!r} {ru.ru_stime!r}")
+    os.replace(out + ".part", out)  # whole or not at all for the reader
+signal.signal(signal.SIGUSR2, usage)
+from edge_vis.cli import main
+sys.argv[0] = "edge-vis"
+sys.exit(main())
+"""
+
+
+class RelaySink(Sink):
+    """The forwarder's sink, keeping only what the JAUS source sent (the relay writes its
+    own discovery queries on the radio too)."""
+
+    def drain(self) -> list[int]:
+        out: list[int] = []
+        while True:
+            try:
+                data = os.read(self.fd, 65536)  # type: ignore[arg-type]
+            except (BlockingIOError, OSError):
+                return out
+            if not data:
+                return out
+            for r in self.deframer.feed(data):
+                if isinstance(r, SerialFrame) and r.packet.source == SOURCE:
+                    out.append(stamp_of(r.packet.payload))
+
+
+class RelayRun(Forwarder):
+    """``edge-vis run`` forwarding UDP -> serial, measured as a :class:`Forwarder`."""
+
+    def __init__(self, dds: bool, tmp: str) -> None:
+        self.kind = "serial"
+        self.run = 0
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            s.bind((FWD_IP, 0))
+            self.in_port = s.getsockname()[1]
+        self.tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.tx.bind((SENDER_IP, 0))
+        self.tx.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 1 << 22)
+        master, self._slave = os.openpty()
+        tty.setraw(self._slave)
+        os.set_blocking(master, False)
+        self.sink = RelaySink(None, master)
+        self._usage = Path(tmp, "usage.txt")
+        profile = Path(tmp, "forwarding.toml")
+        profile.write_text(f"""
+[relay]
+jaus_id = "{FWD_RELAY}"
+name = "footprint-forwarding"
+
+[links.lan]
+url = "udp://{FWD_IP}:{self.in_port}?multicast=off&cycle=0.02&thread=1"
+
+[links.radio]
+url = "serial://{os.ttyname(self._slave)}?baud=20000000&pace=0"
+
+[routing]
+forward = [["lan", "radio"]]
+
+[dds]
+domain = {200 + os.getpid() % 30}
+partitions = ["footprint-forwarding-{os.getpid()}"]
+""")
+        env = {k: v for k, v in os.environ.items()
+               if k not in ("NOTIFY_SOCKET", "WATCHDOG_USEC")}
+        if dds:
+            from edge_vis.dds import loopback_config
+
+            env["CYCLONEDDS_URI"] = loopback_config()
+        self.proc = subprocess.Popen(  # type: ignore[assignment]
+            [sys.executable, "-c", RELAY_REPORTING_USAGE, str(self._usage), "--log-level",
+             "WARNING", "run", "--profile", str(profile), *([] if dds else ["--no-dds"])],
+            env=env, stdin=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        self._learn_routes()
+
+    def _learn_routes(self) -> None:
+        """The source speaks until the relay passes it to the radio (links open); then
+        the component behind the radio answers once, so both routes are learned."""
+        from edge_vis.jaus.serial_framing import frame
+        from edge_vis.jaus.transport import Packet
+
+        deadline = time.monotonic() + 30.0
+        seq = 0
+        while not self.sink.drain():
+            if time.monotonic() > deadline or self.proc.poll() is not None:
+                raise RuntimeError("edge-vis run did not forward: "
+                                   + (self.proc.stderr.read().decode()[-2000:]  # type: ignore[union-attr]
+                                      if self.proc.poll() is not None else "timeout"))
+            self.tx.sendto(message(seq, seq), (FWD_IP, self.in_port))
+            seq += 1
+            time.sleep(0.2)
+        os.write(self.sink.fd, frame(Packet(SOURCE, TARGET, b"\x02\x44", sequence=1)))  # type: ignore[arg-type]
+        time.sleep(0.5)
+        self.sink.drain()
+
+    def cpu(self) -> float:
+        """The relay's user + system CPU seconds so far (its getrusage, on SIGUSR2)."""
+        self._usage.unlink(missing_ok=True)
+        self.proc.send_signal(signal.SIGUSR2)
+        deadline = time.monotonic() + 5.0
+        while not self._usage.exists():
+            if time.monotonic() > deadline:
+                raise RuntimeError("edge-vis run did not report its usage")
+            time.sleep(0.001)
+        user, system = self._usage.read_text().split()
+        return float(user) + float(system)
+
+    def close(self) -> None:
+        self.proc.terminate()
+        try:
+            self.proc.communicate(timeout=15)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.communicate()
+        self.tx.close()
+        os.close(self.sink.fd)  # type: ignore[arg-type]
+        os.close(self._slave)
+
+
+def run_forwarding_part(args: argparse.Namespace) -> list[tuple[str, str, str]]:
+    """edge-vis run forwarding UDP -> serial beside the bench forwarder (part 4)."""
+    dds = not args.no_dds
+    if dds:
+        try:
+            import edge_vis.dds  # noqa: F401
+        except ImportError:
+            dds = False
+    rows: list[tuple[str, str, str]] = []
+    load = "/".join(f"{x:.2f}" for x in os.getloadavg())
+    with tempfile.TemporaryDirectory(prefix="edge-vis-footprint-run-") as tmp:
+        for label in ("bench forwarder, udp->serial, cycle=20 ms, thread=1",
+                      f"edge-vis run (DDS {'on' if dds else 'off'}), [routing] forward, "
+                      "udp->serial, cycle=20 ms, thread=1"):
+            fwd = Forwarder("thread", cycle=0.02) if label.startswith("bench") \
+                else RelayRun(dds, tmp)
+            try:
+                time.sleep(1.0)
+                cpu0, t0 = fwd.cpu(), time.monotonic()
+                time.sleep(args.seconds)
+                idle = (fwd.cpu() - cpu0) / (time.monotonic() - t0)
+                rows.append((f"{label}: CPU idle", f"{idle * 100:.2f} % of a core", ""))
+                got, cpu, latencies = fwd.offer_timed(1000, args.seconds)
+                above = (cpu - idle * args.seconds) / max(got, 1)
+                rows.append((f"{label}: CPU at 1,000 msg/s",
+                             f"{cpu / args.seconds * 100:.2f} % of a core, "
+                             f"{cpu / max(got, 1) * 1e6:.1f} us/msg ({above * 1e6:.1f} "
+                             "above idle)",
+                             f"{got}/{int(1000 * args.seconds)} delivered; <= 2.7 %"))
+                rows.append((f"{label}: send to sink at 1,000 msg/s, p50 / p99",
+                             f"{percentile(latencies, 0.5) / 1e6:.3f} / "
+                             f"{percentile(latencies, 0.99) / 1e6:.3f} ms", ""))
+            finally:
+                fwd.close()
+    load_after = "/".join(f"{x:.2f}" for x in os.getloadavg())
+    rows.append(("load average (1/5/15 min) before / after", f"{load} / {load_after}", ""))
+    return rows
+
+
 # -- part 2: JAUS report -> DDS sample ------------------------------------------------------
 def engine_part(args: argparse.Namespace) -> list[tuple[str, str, str]]:
     """Runs bench/engine.py's pipeline in a child process; returns its row."""
@@ -799,7 +981,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="seconds of resident memory watched after the burst")
     parser.add_argument("--no-dds", action="store_true", help="run the relay without DDS")
     parser.add_argument("--bundle", type=Path, help="measure this edge-vis.pyz as the relay")
-    parser.add_argument("--only", choices=("forwarder", "engine", "relay"),
+    parser.add_argument("--only", choices=("forwarder", "engine", "relay", "run"),
                         help="run one part only")
     parser.add_argument("--cycles", type=lambda t: [float(x) for x in t.split(",") if x],
                         default=[1.0, 5.0, 10.0],
@@ -820,6 +1002,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.only in (None, "relay"):
         relay_rows, ok = relay_part(args)
         rows += relay_rows
+    if args.only in (None, "run"):
+        rows += run_forwarding_part(args)
     print(f"edge-vis footprint ({args.seconds:g} s windows, burst {args.burst:,}, "
           f"{os.cpu_count()} cores, Python {sys.version.split()[0]})")
     width = max(len(r[0]) for r in rows)

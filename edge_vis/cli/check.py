@@ -118,7 +118,9 @@ def check_deployment(path: Path, data: Mapping[str, Any]) -> str:
         raise ConfigError(problems)
     return (f"relay {profile.jaus_id}, {len(profile.links)} link(s), "
             f"{len(profile.vehicles)} vehicle(s), {len(manager.translators)} translator(s)"
-            + (", DDS Security" if security is not None else ""))
+            + (", DDS Security" if security is not None else "")
+            + "".join(f", forwarding between {' and '.join(group)}"
+                      for group in profile.routing.forward))
 
 
 def check_vehicle(path: Path, data: Mapping[str, Any]) -> str:

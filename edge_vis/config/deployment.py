@@ -8,6 +8,7 @@ setting's type, default, range and TOML key is written here once. The file layou
 
     [relay]          jaus_id, authority, name           -> RelayProfile
     [links.NAME]     url, bandwidth, options, profile   -> LinkProfile (+ LinkSpec keys)
+    [routing]        forward                            -> RoutingProfile
     [dds]            domain, partitions                 -> DdsProfile
     [dds.security]   identity_ca, certificate, ...      -> DdsSecurityProfile
     [serving]        relay_name, preference, prefer, hysteresis, heartbeat, lease, settle
@@ -105,6 +106,38 @@ class LinkProfile:
             return self.url
         separator = "&" if "?" in self.url else "?"
         return f"{self.url}{separator}{urlencode(extra)}"
+
+
+@dataclass(frozen=True, slots=True)
+class RoutingProfile:
+    """``[routing]``: JAUS traffic the relay passes between its links, as a JAUS node
+    manager does (``AllowRelay`` in the JAUS Toolset).
+
+    ``forward`` lists groups of link names, e.g. ``[["lan", "radio"]]``: a message that
+    arrives on one link of a group for a component behind another link of it is passed
+    on, both ways, between every two links of the group. Off by default: without it,
+    nothing crosses from one link to another; the relay only answers and commands what it
+    serves itself. Which names are links is checked against ``[links]`` by the loader.
+    """
+
+    forward: tuple[tuple[str, ...], ...] = setting((), check=_non_empty)
+
+    def validate(self) -> list[tuple[str, str]]:
+        problems = []
+        for i, group in enumerate(self.forward):
+            twice = sorted({name for name in group if group.count(name) > 1})
+            if twice:
+                problems.append((f"forward[{i}]", f"link {twice[0]!r} is forwarded to "
+                                                  "itself (named twice in one group)"))
+            elif len(group) < 2:
+                problems.append((f"forward[{i}]", "name at least two links to forward "
+                                                  "between, e.g. [\"lan\", \"radio\"]"))
+        return problems
+
+    def pairs(self) -> frozenset[tuple[str, str]]:
+        """Every (from link, to link) forwarded, both ways."""
+        return frozenset((a, b) for group in self.forward for a in group for b in group
+                         if a != b)
 
 
 @dataclass(frozen=True, slots=True)
@@ -377,6 +410,7 @@ class RelayProfile:
     authority: int = setting(100, key="relay.authority", ge=0, le=255)
     name: str = setting("edge-vis", key="relay.name")
     links: tuple[LinkProfile, ...] = setting((), custom=True)
+    routing: RoutingProfile = field(default_factory=RoutingProfile)
     dds: DdsProfile = field(default_factory=DdsProfile)
     translators: TranslatorSelection = field(default_factory=TranslatorSelection)
     discovery: DiscoveryProfile = field(default_factory=DiscoveryProfile)

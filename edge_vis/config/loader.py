@@ -102,6 +102,7 @@ def read_deployment(reader: Reader, data: Mapping[str, Any], *,
         report_minimums=minimums, report_priorities=priorities,
         operators=_operators(reader, data, any_operator_default))
     _check_vehicles(reader, profile)
+    _check_routing(reader, profile)
     _check_files(reader, profile)
     return profile
 
@@ -176,6 +177,16 @@ def _link_spec(reader: Reader, item: Mapping[str, Any], profile: str,
         reader.problem(f"{path}.bit_rate",
                        "missing: name a link 'profile' or give the link's bit_rate")
     return spec if len(reader.problems) == before else None
+
+
+def _check_routing(reader: Reader, profile: RelayProfile) -> None:
+    """Every link ``[routing] forward`` names must be one of ``[links]``."""
+    names = [link.name for link in profile.links]
+    for i, group in enumerate(profile.routing.forward):
+        for name in dict.fromkeys(group):
+            if name not in names:
+                reader.problem(f"routing.forward[{i}]",
+                               f"unknown link {name!r} (links: {', '.join(names) or 'none'})")
 
 
 def link_problems(link: LinkProfile) -> list[tuple[str, str]]:

@@ -36,7 +36,7 @@ from edge_vis import plugins
 from edge_vis.bandwidth.demands import FleetPlanner
 from edge_vis.bandwidth.linkspec import DEFAULT_PRIORITIES, LinkSpec
 from edge_vis.catalogue import Catalogue
-from edge_vis.config import BulkProfile, LinkProfile, RelayProfile
+from edge_vis.config import BulkProfile, LinkProfile, RelayProfile, RoutingProfile
 from edge_vis.config.deployment import operator_partition
 from edge_vis.engine.announcements import verify_discovery
 from edge_vis.engine.engine import Engine
@@ -52,7 +52,14 @@ from edge_vis.kit.actions import (
 )
 from edge_vis.routing.accounting import Kind, LogLimiter, Tally, losses, tallies_of, totals
 from edge_vis.routing.link import Link, Peer, create_link
-from edge_vis.routing.router import Deliver, DeliveryFailed, Router, RouterConfig, SendPackets
+from edge_vis.routing.router import (
+    Deliver,
+    DeliveryFailed,
+    ForwardWires,
+    Router,
+    RouterConfig,
+    SendPackets,
+)
 from edge_vis.routing.traffic import priority_for
 from edge_vis.shell.memory import release_memory
 from edge_vis.shell.sharedloop import on_loop_thread
@@ -117,6 +124,8 @@ class Runtime:
         self.jaus_bps = 0.0  # JAUS traffic on all links now (bit/s): the bulk budget's share
         #: the bandwidth planner, when a link has a link profile (see edge_vis.bandwidth)
         self.planner: FleetPlanner | None = None
+        #: (from link, to link) pairs the router forwards between ([routing] forward)
+        self.forwarding: frozenset[tuple[str, str]] = frozenset()
 
     # -- life cycle ------------------------------------------------------------------------
     async def start(self) -> None:
@@ -145,6 +154,8 @@ class Runtime:
             self._start_bulk(self.profile.bulk)
         for link_profile in self.profile.links:
             await self._open_link(link_profile)
+        for note in self._apply_routing(self.profile.routing):
+            log.warning("%s", note)
         log.info(
             "relay %s (%s%s) running: links %s, translators %s",
             self.profile.jaus_id, self.profile.name,
@@ -165,7 +176,7 @@ class Runtime:
         link: Link = create_link(url, name=name)
         if self._mirror is not None:
             self._mirror.attach(link)
-        await link.open(self._on_packets, self._on_link_state)
+        await link.open(self._on_packets, self._on_link_state, pass_through=self._pass_through)
         self.links[name] = link
         spec = self._spec(name)
         if spec is not None and spec.limited:
@@ -180,6 +191,25 @@ class Runtime:
         self.router.add_link(name, mtu=link.mtu, bandwidth_bps=link.bandwidth_bps,
                              overhead=link.overhead)
         log.info("link %s open: %s (mtu %d)", name, url, link.mtu)
+
+    def _apply_routing(self, routing: RoutingProfile) -> list[str]:
+        """Switch the router's forwarding between the open links to ``routing``; returns
+        what it could not apply (a link that is not open)."""
+        wanted = {pair for pair in routing.pairs()
+                  if pair[0] in self.links and pair[1] in self.links}
+        missing = sorted({name for pair in routing.pairs() for name in pair
+                          if name not in self.links})
+        for source, target in self.forwarding - wanted:
+            self.router.set_relay(source, target, False, both_ways=False)
+        for source, target in wanted - self.forwarding:
+            self.router.set_relay(source, target, both_ways=False)
+        if wanted != self.forwarding:
+            shown = sorted({tuple(sorted(pair)) for pair in wanted})
+            log.info("forwarding JAUS traffic between links: %s",
+                     ", ".join(f"{a} <-> {b}" for a, b in shown) or "none")
+        self.forwarding = frozenset(wanted)
+        return [f"routing.forward: link {name!r} is not open (links are opened at start)"
+                for name in missing]
 
     def _spec(self, link: str) -> LinkSpec | None:
         for lp in self.profile.links:
@@ -247,14 +277,16 @@ class Runtime:
     def apply_profile(self, profile: RelayProfile) -> list[str]:
         """Take a reloaded profile (SIGHUP, :mod:`edge_vis.shell.reload`) while running.
 
-        ``profile`` must keep this relay's id, links, DDS and translators; the engine
-        applies rates, timing and vehicle profiles. Returns what it could not apply.
+        ``profile`` must keep this relay's id, links, DDS and translators; forwarding
+        between links changes at once; the engine applies rates, timing and vehicle
+        profiles. Returns what it could not apply.
         """
         self.profile = profile
         if self.engine is None or self._loop is None:
             return []
         now = self._loop.time()
-        not_applied = self.engine.apply_profile(profile, now)
+        not_applied = self._apply_routing(profile.routing)
+        not_applied += self.engine.apply_profile(profile, now)
         self._pump_engine(now)
         return not_applied
 
@@ -329,6 +361,20 @@ class Runtime:
         self._carry_router(actions, now)
         self._pump_engine(now)
 
+    def _pass_through(self, link: str, peer: Peer, wires: list[bytes]) -> int:
+        """Messages that only pass through between forwarded links, as their bytes (see
+        :meth:`Router.forward`); how many the router took (the rest go to _on_packets)."""
+        if not self.forwarding:
+            return 0
+        assert self._loop is not None
+        now = self._loop.time()
+        taken, actions, queued = self.router.forward(link, peer, wires, now)
+        if actions:
+            self._carry_router(actions, now)
+        if queued:
+            self._rearm(now)
+        return taken
+
     def _on_sample(self, topic: str, sample: dict[str, Any]) -> None:
         assert self._loop is not None and self.engine is not None
         now = self._loop.time()
@@ -402,7 +448,13 @@ class Runtime:
     def _carry_router(self, actions: Iterable[object], now: float) -> None:
         engine = self.engine
         for action in actions:
-            if isinstance(action, SendPackets):
+            if isinstance(action, ForwardWires):
+                link = self.links.get(action.link)
+                if link is None:
+                    self.counters["send to unknown link"] += 1
+                    continue
+                link.send_wires(action.wires, action.peer)
+            elif isinstance(action, SendPackets):
                 link = self.links.get(action.link)
                 if link is None:
                     self.counters["send to unknown link"] += 1

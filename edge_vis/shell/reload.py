@@ -9,6 +9,8 @@ restart, so ``systemctl status`` can show it.
 What can change without a restart:
 
 * timing the engine reads each time it uses it (``discovery.*``), the relay ``name``;
+* forwarding between links (``routing.forward``): the router's switches change at once
+  (between links that are open; a link added to the profile needs a restart first);
 * report rates, event/command/control timing, authority and vehicle profiles, which the
   engine captures when it sets a vehicle up: :meth:`Runtime.apply_profile` hands them to
   :meth:`Engine.apply_profile`, which re-requests events whose rate changed (no vehicle
@@ -53,8 +55,8 @@ RESTART_ONLY: Mapping[str, str] = {
     "translators": "translators own DDS topics created at start",
     "jsidl": "the message catalogue is built at start",
 }
-#: settings the engine reads each time it uses them
-LIVE = frozenset({"name", "discovery", "serving"})
+#: settings the engine reads each time it uses them, and the router's forwarding
+LIVE = frozenset({"name", "discovery", "serving", "routing"})
 #: leaves of a live section that still need a restart
 RESTART_LEAVES: Mapping[str, str] = {
     "serving.relay_name": "the relay's name is its identity among the relays on DDS",
