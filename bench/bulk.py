@@ -28,7 +28,8 @@ table; asserts nothing. ``--only`` runs some rows (comma-separated: ``loopback``
 * ``pull``: the relay fetches an announced image from a vehicle's image server
   (``serve-images``) through the same lossy proxy, no flags (lanes paced by the image
   server); timed from the announcement to the relay's ``ImageProduct`` of the verified
-  file, the file size of the lanes' rows.
+  file, the file size of the lanes' rows (the announced SHA-256 is computed before the
+  clock starts: the vehicle hashes its image before announcing it).
 * ``resume``: a loopback transfer held to 80 Mbit/s is cut (receiver closes every
   connection); the figure is the time from the cut until the receiver has accepted the
   resumed transfer at its offset, with the sender's default backoff.
@@ -164,6 +165,7 @@ def pulled(folder: Path, size: int, loss: float) -> float:
     served.mkdir()
     content = random.Random(size).randbytes(size)
     (served / "atr-1.png").write_bytes(content)
+    sha256 = hashlib.sha256(content).hexdigest()  # the vehicle's work, before it announces
     verified: list[float] = []
 
     def publish(topic: str, sample: dict) -> None:
@@ -178,7 +180,7 @@ def pulled(folder: Path, size: int, loss: float) -> float:
                                         sources={"*": f"{address[0]}:{address[1]}"}) as relay:
         started = time.perf_counter()
         relay.announce({"vehicle_id": "uuv1", "image_id": "atr-1", "file_name": "atr-1.png",
-                        "size_bytes": size, "sha256": hashlib.sha256(content).hexdigest(),
+                        "size_bytes": size, "sha256": sha256,
                         "transfer_id": "", "format": "png",
                         "capture_time_ms": 1_700_000_000_000, "targets": []})
         deadline = time.monotonic() + 180
