@@ -76,11 +76,10 @@ from collections import Counter
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from forwarded import SOURCE, TARGET, Sink, message, stamp_of  # bench/forwarded.py
+from forwarded import SOURCE, TARGET, Sink, message  # bench/forwarded.py
 
 from edge_vis.catalogue import default_catalogue
 from edge_vis.jaus.address import JausAddress
-from edge_vis.jaus.serial_framing import SerialFrame
 from edge_vis.jaus.transport import unpack_datagram
 
 RELAY_IP = "127.0.62.1"
@@ -324,14 +323,18 @@ def forwarder_main(in_port: int, out: str, cycle: float = 0.0, thread: bool = Fa
 class Forwarder:
     """A forwarder process, its sink and the traffic this process sends it."""
 
-    def __init__(self, kind: str, wrapper: Sequence[str] = (), cycle: float = 0.0) -> None:
-        self.kind = kind
+    def _open_sender(self) -> None:
+        """A free port for the forwarder's UDP link, and the socket that feeds it."""
         with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
             s.bind((FWD_IP, 0))
             self.in_port = s.getsockname()[1]
         self.tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.tx.bind((SENDER_IP, 0))
         self.tx.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 1 << 22)
+
+    def __init__(self, kind: str, wrapper: Sequence[str] = (), cycle: float = 0.0) -> None:
+        self.kind = kind
+        self._open_sender()
         udp: socket.socket | None = None
         master: int | None = None
         if kind in ("serial", "bare", "thread", "tbare"):
@@ -597,40 +600,17 @@ sys.exit(main())
 """
 
 
-class RelaySink(Sink):
-    """The forwarder's sink, keeping only what the JAUS source sent (the relay writes its
-    own discovery queries on the radio too)."""
-
-    def drain(self) -> list[int]:
-        out: list[int] = []
-        while True:
-            try:
-                data = os.read(self.fd, 65536)  # type: ignore[arg-type]
-            except (BlockingIOError, OSError):
-                return out
-            if not data:
-                return out
-            for r in self.deframer.feed(data):
-                if isinstance(r, SerialFrame) and r.packet.source == SOURCE:
-                    out.append(stamp_of(r.packet.payload))
-
-
 class RelayRun(Forwarder):
     """``edge-vis run`` forwarding UDP -> serial, measured as a :class:`Forwarder`."""
 
     def __init__(self, dds: bool, tmp: str) -> None:
         self.kind = "serial"
         self.run = 0
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-            s.bind((FWD_IP, 0))
-            self.in_port = s.getsockname()[1]
-        self.tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.tx.bind((SENDER_IP, 0))
-        self.tx.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 1 << 22)
+        self._open_sender()
         master, self._slave = os.openpty()
         tty.setraw(self._slave)
         os.set_blocking(master, False)
-        self.sink = RelaySink(None, master)
+        self.sink = Sink(None, master, only_from=SOURCE)  # not the relay's own queries
         self._usage = Path(tmp, "usage.txt")
         profile = Path(tmp, "forwarding.toml")
         profile.write_text(f"""

@@ -33,9 +33,12 @@ def stamp_of(payload: bytes) -> int:
 class Sink:
     """Receives forwarded messages from a UDP socket or a pty master."""
 
-    def __init__(self, udp: socket.socket | None, pty_fd: int | None) -> None:
+    def __init__(self, udp: socket.socket | None, pty_fd: int | None,
+                 only_from: JausAddress | None = None) -> None:
         self.udp = udp
         self.fd = pty_fd
+        #: keep only serial frames from this source (a relay writes its own queries too)
+        self.only_from = only_from
         self.deframer = SerialDeframer()
         self.tail = b""
 
@@ -83,5 +86,6 @@ class Sink:
             if not data:
                 return out
             for r in self.deframer.feed(data):
-                if isinstance(r, SerialFrame):
+                if isinstance(r, SerialFrame) and (self.only_from is None
+                                                   or r.packet.source == self.only_from):
                     out.append(stamp_of(r.packet.payload))
