@@ -620,19 +620,11 @@ class Router:
                     state.sent += len(batch)
                     actions.append(_forward_wires(target_link, target_peer, tuple(batch)))
                     continue
-                if one_priority:  # Router._within_budget, on the bytes
-                    if state.refilled is not None:
-                        state.tokens = min(state.burst,
-                                           state.tokens + (now - state.refilled) * rate / 8)
-                    state.refilled = now
-                    overhead = state.overhead
-                    total = sum(map(len, batch)) + overhead * len(batch)
-                    if total <= state.queue_limit and \
-                            state.tokens - (total - len(batch[-1]) - overhead) >= -1e-9:
-                        state.tokens -= total
-                        state.sent += len(batch)
-                        actions.append(_forward_wires(target_link, target_peer, tuple(batch)))
-                        continue
+                if one_priority and self._within_budget(
+                        state, [priority], [len(w) - MIN_DATA_SIZE for w in batch], now, rate):
+                    state.sent += len(batch)
+                    actions.append(_forward_wires(target_link, target_peer, tuple(batch)))
+                    continue
             # what the queues decide: exactly as for the same packets on the full path
             self._queue(actions, target_link, target_peer, list(map(packet_from_wire, batch)),
                         now)
