@@ -979,13 +979,13 @@ class BulkReceiver(UdtService):
             self._outcome("mismatch", exc.reason)
             return None
         self._release(m, sock)
+        self.counters["verified"] += 1  # before the sender can hear of it
         conn.send_receipt(True, m.sha256, "" if m.segment is None else
                           f"segment {m.segment[0] + 1}/{m.segment[1]} stored; SHA-256 verified")
         # The sender waits for this receipt; thumbnails and announcements need not
         # hold it up (a lost connection is noticed by the caller's next send).
         with contextlib.suppress(ConnectionLost):
             _send_all(sock, conn.data_to_send())
-        self.counters["verified"] += 1
         log.info("verified %s from %s (sha256 %s...)", m.name, m.vehicle_id, m.sha256[:12])
         with self._status_lock:
             self._status(whole, "verified", m.size)
