@@ -30,6 +30,13 @@ table; asserts nothing. ``--only`` runs some rows (comma-separated: ``loopback``
   server); timed from the announcement to the relay's ``ImageProduct`` of the verified
   file, the file size of the lanes' rows (the announced SHA-256 is computed before the
   clock starts: the vehicle hashes its image before announcing it).
+* every radio row also says where its time went, from the emulated radio's own record of
+  when its link was busy (``Timeline``), in the direction the file's data took: how long
+  after the clock started the first data packet went onto the link, how long the link
+  sat idle while the data flowed (and of that, in the data's first and last second), how
+  long after the last data packet the clock stopped, and the link's busy time (data
+  packets, and control packets: UDT's ACK2 and NAK, manifests). A row's time is the sum
+  of the first, the second, the third and the busy time.
 * ``resume``: a loopback transfer held to 80 Mbit/s is cut (receiver closes every
   connection); the figure is the time from the cut until the receiver has accepted the
   resumed transfer at its offset, with the sender's default backoff.
@@ -76,6 +83,22 @@ def _timed_send(path: Path, manifest: object, address: tuple[str, int],
     return elapsed
 
 
+def _where(counters: dict, started: float, ended: float) -> str:
+    """Where a radio row's time went (see the module doc), from the proxy's timelines."""
+    lines = [counters.get(f"{d}_timeline") for d in ("up", "down")]
+    line = max((t for t in lines if t is not None and t.first_full is not None),
+               key=lambda t: t.busy_full, default=None)
+    if line is None:
+        return ""
+    first, last = line.first_full, line.last_full
+    return (f"data on the radio {(first - started) * 1000:.0f} ms after the start, idle "
+            f"{line.idle(first, last) * 1000:.0f} ms while it flowed (first s "
+            f"{line.idle(first, first + 1) * 1000:.0f}, last s "
+            f"{line.idle(last - 1, last) * 1000:.0f}), done {(ended - last) * 1000:.0f} ms "
+            f"after it; radio busy {line.busy_full + line.busy_small:.2f} s (control "
+            f"{line.busy_small * 1000:.0f} ms)")
+
+
 def _paced(history: list) -> str:
     """The rate probe's course: where the start ended and the range paced at after it."""
     if not history:
@@ -111,13 +134,15 @@ def loopback(folder: Path, size: int, runs: int, warm: bool) -> tuple[float, flo
 
 
 def radio(folder: Path, size: int, loss: float, lanes: int, max_rate: int | None
-          ) -> tuple[float, dict, list]:
-    """Goodput (Mbit/s), the proxy's counters and the rate probe's course."""
+          ) -> tuple[float, dict, list, str]:
+    """Goodput (Mbit/s), the proxy's counters, the rate probe's course and where the
+    time went."""
     run = next(_RUN)
     path, manifest = _file(folder, size, f"radio{lanes}{loss}{max_rate}-{run}.bin")
     with UdtBulkChannel.ImageService(folder / f"radio{lanes}{loss}{max_rate}-{run}") as svc, \
             separate_process(svc.address, loss=loss, delay=0.020, rate_bps=10e6,
-                             queue_bytes=64 * 1024, seed=1, lifetime=600) as (address, counters), \
+                             queue_bytes=64 * 1024, seed=1, lifetime=600,
+                             timeline=True) as (address, counters), \
             UdtBulkChannel.BulkSender(address, max_rate_bps=max_rate, lanes=lanes,
                                       give_up_after=120) as sender:
         started = time.perf_counter()
@@ -125,11 +150,13 @@ def radio(folder: Path, size: int, loss: float, lanes: int, max_rate: int | None
         elapsed = time.perf_counter() - started
     if not result.ok:
         raise SystemExit(f"transfer failed: {result.reason}")
-    return size * 8 / elapsed / 1e6, counters, sender.rate_history
+    return (size * 8 / elapsed / 1e6, counters, sender.rate_history,
+            _where(counters, started, started + elapsed))
 
 
-def forwarded(folder: Path, size: int, loss: float) -> float:
-    """Goodput (Mbit/s) of the relay's forwarder to the operator side, adaptive lanes."""
+def forwarded(folder: Path, size: int, loss: float) -> tuple[float, str]:
+    """Goodput (Mbit/s) of the relay's forwarder to the operator side, adaptive lanes,
+    and where the time went."""
     run = next(_RUN)
     path, manifest = _file(folder, size, f"fwd{run}.bin")
     marks: dict[str, float] = {}
@@ -144,7 +171,8 @@ def forwarded(folder: Path, size: int, loss: float) -> float:
     with UdtBulkChannel.ImageService(folder / f"operator{run}", publish_data=False,
                                      publish=seen("operator", "ImageProduct")) as ops, \
             separate_process(ops.address, loss=loss, delay=0.020, rate_bps=10e6,
-                             queue_bytes=64 * 1024, seed=1, lifetime=600) as (address, _c), \
+                             queue_bytes=64 * 1024, seed=1, lifetime=600,
+                             timeline=True) as (address, counters), \
             UdtBulkChannel.ImageService(folder / f"relay{run}", forward=[address],
                                         publish=seen("relay", "TransferStatus",
                                                      "TRANSFER_COMPLETE"),
@@ -155,11 +183,13 @@ def forwarded(folder: Path, size: int, loss: float) -> float:
             time.sleep(0.05)
     if not result.ok or "operator" not in marks:
         raise SystemExit("forwarding failed")
-    return size * 8 / (marks["operator"] - marks["relay"]) / 1e6
+    return (size * 8 / (marks["operator"] - marks["relay"]) / 1e6,
+            _where(counters, marks["relay"], marks["operator"]))
 
 
-def pulled(folder: Path, size: int, loss: float) -> float:
-    """Goodput (Mbit/s) of the relay fetching an announced image from an image server."""
+def pulled(folder: Path, size: int, loss: float) -> tuple[float, str]:
+    """Goodput (Mbit/s) of the relay fetching an announced image from an image server,
+    and where the time went."""
     run = next(_RUN)
     served = folder / f"vehicle{loss}-{run}"
     served.mkdir()
@@ -174,7 +204,8 @@ def pulled(folder: Path, size: int, loss: float) -> float:
 
     with UdtBulkChannel.ImageServer(served, vehicle_id="uuv1") as server, \
             separate_process(server.address, loss=loss, delay=0.020, rate_bps=10e6,
-                             queue_bytes=64 * 1024, seed=1, lifetime=600) as (address, _c), \
+                             queue_bytes=64 * 1024, seed=1, lifetime=600,
+                             timeline=True) as (address, counters), \
             UdtBulkChannel.ImageService(folder / f"puller{loss}-{run}", publish=publish,
                                         publish_data=False,
                                         sources={"*": f"{address[0]}:{address[1]}"}) as relay:
@@ -188,7 +219,7 @@ def pulled(folder: Path, size: int, loss: float) -> float:
             time.sleep(0.02)
     if not verified:
         raise SystemExit("fetch failed")
-    return size * 8 / (verified[0] - started) / 1e6
+    return size * 8 / (verified[0] - started) / 1e6, _where(counters, started, verified[0])
 
 
 def resume_time(folder: Path, runs: int) -> list[float]:
@@ -258,25 +289,26 @@ def main() -> None:
                     continue
                 size = (4 << 20) if lanes == 1 and loss else radio_size
                 for _ in range(args.repeat):
-                    good, c, history = radio(folder, size, loss, lanes, max_rate)
+                    good, c, history, where = radio(folder, size, loss, lanes, max_rate)
                     steps = _paced(history) if lanes == 0 else ""
                     rows.append((f"radio 10M/{loss:.0%}/20ms, {label}", f"{good:7.2f} Mbit/s",
                                  f"{good / 10 * 100:.1f} % of link; {size >> 20} MiB; proxy "
                                  f"lost {c.get('up_lost', 0)}+{c.get('down_lost', 0)}, "
                                  f"queue-dropped {c.get('up_queue_drop', 0)}"
-                                 + (f"; {steps}" if steps else "")))
+                                 + (f"; {steps}" if steps else "") + f"; {where}"))
         for loss in (0.02, 0.0):
             for _ in range(args.repeat if "forwarder" in only else 0):
-                good = forwarded(folder, radio_size, loss)
+                good, where = forwarded(folder, radio_size, loss)
                 rows.append((f"radio 10M/{loss:.0%}/20ms, relay forwarder, adaptive",
                              f"{good:7.2f} Mbit/s", f"{good / 10 * 100:.1f} % of link; "
-                             f"{radio_size >> 20} MiB, relay verified -> operator verified"))
+                             f"{radio_size >> 20} MiB, relay verified -> operator verified; "
+                             f"{where}"))
         for loss in (0.02, 0.0):
             for _ in range(args.repeat if "pull" in only else 0):
-                good = pulled(folder, radio_size, loss)
+                good, where = pulled(folder, radio_size, loss)
                 rows.append((f"radio 10M/{loss:.0%}/20ms, relay pulls (serve-images)",
                              f"{good:7.2f} Mbit/s", f"{good / 10 * 100:.1f} % of link; "
-                             f"{radio_size >> 20} MiB, announced -> relay verified"))
+                             f"{radio_size >> 20} MiB, announced -> relay verified; {where}"))
         delays = resume_time(folder, 3 if not args.quick else 1) if "resume" in only else []
         if delays:
             rows.append(("resume after a drop", f"{statistics.median(delays) * 1000:7.0f} ms",

@@ -13,6 +13,10 @@ through it unchanged). Impairments apply to both directions independently:
 * ``delay`` (+ uniform ``jitter``): one-way propagation delay in seconds;
 * ``blackout(seconds)``: drop everything for a while (a radio fade).
 
+With ``timeline`` (and a ``rate_bps``) each direction keeps a :class:`Timeline` of when its
+link was busy and idle, which a bench reads to say where a transfer's time went (waiting
+before the data, idle while it flowed, after it).
+
 The proxy runs one thread and stops by itself after ``lifetime`` seconds, so a test that
 forgets it cannot leave it running. Counters say what happened to each datagram.
 
@@ -42,10 +46,50 @@ MAX_CLIENTS = 256
 MAX_SCHEDULED = 20000
 
 
+FULL_BYTES = 1000
+"""Datagrams of at least this many bytes are the data; smaller ones are control (UDT's
+ACK, ACK2 and NAK, the bulk protocol's manifests and answers)."""
+
+
+@dataclass
+class Timeline:
+    """When one direction's link was busy, on the monotonic clock (which the benches' own
+    ``time.perf_counter`` and ``time.monotonic`` read too)."""
+
+    #: idle periods of the link between busy ones: (from, to)
+    gaps: list[tuple[float, float]] = field(default_factory=list)
+    #: when the first datagram of ``FULL_BYTES`` or more went onto the link, and when the
+    #: last one had left it
+    first_full: float | None = None
+    last_full: float | None = None
+    #: seconds the link spent sending datagrams of ``FULL_BYTES`` or more, and smaller ones
+    busy_full: float = 0.0
+    busy_small: float = 0.0
+    _free: float | None = None
+
+    def carried(self, start: float, end: float, size: int) -> None:
+        """The link sends a datagram of ``size`` bytes from ``start`` to ``end``."""
+        if self._free is not None and start > self._free:
+            self.gaps.append((self._free, start))
+        self._free = end if self._free is None else max(self._free, end)
+        if size >= FULL_BYTES:
+            self.busy_full += end - start
+            self.first_full = start if self.first_full is None else self.first_full
+            self.last_full = end
+        else:
+            self.busy_small += end - start
+
+    def idle(self, since: float, until: float) -> float:
+        """Seconds the link was idle between ``since`` and ``until`` (from its first
+        datagram on)."""
+        return sum(max(0.0, min(b, until) - max(a, since)) for a, b in self.gaps)
+
+
 @dataclass
 class _Direction:
     name: str
     link_free: float = 0.0
+    timeline: Timeline | None = None
 
 
 @dataclass(order=True)
@@ -72,6 +116,7 @@ class LossyProxy:
         queue_bytes: int = 64 * 1024,
         seed: int = 1,
         lifetime: float = 120.0,
+        timeline: bool = False,
     ) -> None:
         if not 0.0 <= loss <= 1.0:
             raise ValueError("loss is a probability 0..1")
@@ -93,8 +138,8 @@ class LossyProxy:
         self._sel.register(self._front, selectors.EVENT_READ)
         self._heap: list[_Scheduled] = []
         self._seq = itertools.count()
-        self._up = _Direction("up")
-        self._down = _Direction("down")
+        self._up = _Direction("up", timeline=Timeline() if timeline else None)
+        self._down = _Direction("down", timeline=Timeline() if timeline else None)
         self._blackout_until = 0.0
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="lossy-proxy", daemon=True)
@@ -120,6 +165,11 @@ class LossyProxy:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
+
+    def timelines(self) -> dict[str, Timeline]:
+        """Each direction's :class:`Timeline` ("up": from the clients; "down": to them),
+        when made with ``timeline``."""
+        return {d.name: d.timeline for d in (self._up, self._down) if d.timeline is not None}
 
     def blackout(self, seconds: float) -> None:
         """Drop every datagram, both ways, for ``seconds`` from now."""
@@ -156,6 +206,8 @@ class LossyProxy:
                 self.counters[f"{direction.name}_queue_drop"] += 1
                 return None
             direction.link_free = start + len(data) * 8.0 / self.rate_bps
+            if direction.timeline is not None:
+                direction.timeline.carried(start, direction.link_free, len(data))
         else:
             direction.link_free = start
         if len(self._heap) >= MAX_SCHEDULED:
@@ -211,24 +263,28 @@ def _serve_elsewhere(upstream: tuple[str, int], options: dict, pipe: Any) -> Non
     with LossyProxy(upstream, **options) as proxy:
         pipe.send(proxy.address)
         pipe.recv()
-        pipe.send(dict(proxy.counters))
+        pipe.send((dict(proxy.counters), proxy.timelines()))
 
 
 @contextlib.contextmanager
 def separate_process(upstream: tuple[str, int], **options: Any
-                     ) -> Iterator[tuple[tuple[str, int], dict[str, int]]]:
+                     ) -> Iterator[tuple[tuple[str, int], dict[str, Any]]]:
     """A :class:`LossyProxy` in a process of its own, for benches: the emulated radio
     then keeps its timing however busy the measured sender and receiver keep their
-    interpreter. Yields its address and a dict filled with its counters on exit."""
+    interpreter. Yields its address and a dict filled with its counters on exit (with
+    ``timeline=True``, also each direction's :class:`Timeline` as ``"up_timeline"`` and
+    ``"down_timeline"``)."""
     ours, theirs = multiprocessing.Pipe()
     proc = multiprocessing.get_context("fork").Process(
         target=_serve_elsewhere, args=(upstream, options, theirs), daemon=True)
     proc.start()
     address = ours.recv()
-    counters: dict[str, int] = {}
+    counters: dict[str, Any] = {}
     try:
         yield address, counters
     finally:
         ours.send("stop")
-        counters.update(ours.recv())
+        counted, timelines = ours.recv()
+        counters.update(counted)
+        counters.update({f"{name}_timeline": line for name, line in timelines.items()})
         proc.join(5)
