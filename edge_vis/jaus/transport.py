@@ -264,15 +264,21 @@ def packet_from_wire(wire: bytes) -> Packet:
 def unpack_message(wire: bytes) -> list[Packet]:
     """Every general transport message in ``wire``: a JUDP datagram without its version
     byte. Raises :class:`DecodeError` as :func:`unpack_datagram` does."""
-    if len(wire) >= MIN_DATA_SIZE:  # the usual case: one message, no compression
-        type_hc, length, flags, dst, src = _HEAD.unpack_from(wire)
-        if length == len(wire) and length >= MIN_DATA_SIZE and not type_hc >> 6:
-            return [_packet(dst, src, flags, type_hc & 0x3F, wire)]
+    return _messages(wire, 0)
+
+
+def _messages(data: bytes | memoryview, start: int) -> list[Packet]:
+    """Every general transport message in ``data`` from ``start`` on (1: behind a JUDP
+    version byte; 0: a message's bytes), offsets in errors counted from ``data``'s start."""
+    end = len(data)
+    if end - start >= MIN_DATA_SIZE:  # the usual case: one message, no compression
+        type_hc, length, flags, dst, src = _HEAD.unpack_from(data, start)
+        if length == end - start and length >= MIN_DATA_SIZE and not type_hc >> 6:
+            return [_packet(dst, src, flags, type_hc & 0x3F, bytes(data[start:]))]
     packets = []
-    offset = 0
-    end = len(wire)
+    offset = start
     while offset < end:
-        packet, offset = decode_packet(wire, offset)
+        packet, offset = decode_packet(data, offset)
         packets.append(packet)
     if not packets:
         raise DecodeError("datagram holds no transport message", path="transport", offset=1)
@@ -309,16 +315,4 @@ def unpack_datagram(data: bytes | memoryview, size: int | None = None) -> list[P
             raise UnsupportedError("legacy JAUS01.0 (OPC 2.75) header is not supported",
                                    path="version", offset=0)
         raise DecodeError(f"unknown JUDP version byte 0x{version:02X}", path="version", offset=0)
-    end = len(data)
-    if end >= 1 + MIN_DATA_SIZE:  # the usual datagram: one message, no compression
-        type_hc, length, flags, dst, src = _HEAD.unpack_from(data, 1)
-        if length == end - 1 and length >= MIN_DATA_SIZE and not type_hc >> 6:
-            return [_packet(dst, src, flags, type_hc & 0x3F, bytes(data[1:]))]
-    packets = []
-    offset = 1
-    while offset < end:
-        packet, offset = decode_packet(data, offset)
-        packets.append(packet)
-    if not packets:
-        raise DecodeError("datagram holds no transport message", path="transport", offset=1)
-    return packets
+    return _messages(data, 1)
