@@ -80,18 +80,15 @@ class _PacedFetch:
         self.lanes[sender] = (None, 0)
 
     def tick(self, now: float) -> None:
-        busy = 0
-        trips = []
+        sending = []  # the round trips of the lanes with data on its way
         for sender, (segment, seen) in list(self.lanes.items()):
             ack = sender.acknowledged()
             if segment is not None and ack is not None and ack[0] == segment:
                 self.lanes[sender] = (segment, max(seen, ack[1]))
-                busy += ack[2]
-                if ack[2] and sender.round_trip():
-                    trips.append(sender.round_trip())
-        if trips:  # the lanes share the radio's queue: the least says it (as LaneRun)
-            self.rate.control.smoothed(min(trips))
-        share = self.rate.share(now, self.done + sum(a for _, a in self.lanes.values()), busy)
+                if ack[2]:
+                    sending.append(sender.round_trip())
+        share = self.rate.share(now, self.done + sum(a for _, a in self.lanes.values()),
+                                sending)
         for sender in self.lanes:
             sender.cap(share)
 

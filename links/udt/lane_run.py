@@ -24,7 +24,7 @@ import logging
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -66,10 +66,15 @@ class SharedRate:
         """The share of a lane starting now, ``lanes`` lanes running with it."""
         return lane_share(self.control.rate_bps, lanes)
 
-    def share(self, now: float, acknowledged: int, busy: int) -> float:
-        """Feed the bytes acknowledged so far; return each lane's share (bit/s)."""
+    def share(self, now: float, acknowledged: int, sending: Sequence[float | None]) -> float:
+        """Feed the bytes acknowledged so far and the smoothed round trips of the lanes
+        with data on its way (None: not read yet); return each such lane's share (bit/s).
+        The lanes share the radio's queue: the least of their round trips says it."""
+        trips = [trip for trip in sending if trip]
+        if trips:
+            self.control.smoothed(min(trips))
         rate = self.control.sample(now, acknowledged)
-        share = lane_share(rate, busy)
+        share = lane_share(rate, len(sending))
         if self.pace is not None and rate >= self.pace.rate_bps:
             share *= HEADROOM  # the budget's pacer holds the total
         return share
@@ -212,10 +217,8 @@ class LaneRun:
                     for stop in running.values():
                         stop.set()
                 if shared is not None:
-                    trips = [t for t in (senders[lane].round_trip() for lane in busy) if t]
-                    if trips:  # the lanes share the radio's queue: the least says it
-                        shared.control.smoothed(min(trips))
-                    share = shared.share(now, acknowledged, len(busy))
+                    share = shared.share(now, acknowledged,
+                                         [senders[lane].round_trip() for lane in busy])
                     for lane in running:
                         if shares.get(lane) != share:
                             shares[lane] = share
