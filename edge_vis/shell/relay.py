@@ -448,18 +448,14 @@ class Runtime:
     def _carry_router(self, actions: Iterable[object], now: float) -> None:
         engine = self.engine
         for action in actions:
-            if isinstance(action, ForwardWires):
+            if isinstance(action, SendPackets | ForwardWires):
                 link = self.links.get(action.link)
                 if link is None:
                     self.counters["send to unknown link"] += 1
                     continue
-                link.send_wires(action.wires, action.peer)
-            elif isinstance(action, SendPackets):
-                link = self.links.get(action.link)
-                if link is None:
-                    self.counters["send to unknown link"] += 1
-                    continue
-                if action.urgent:
+                if isinstance(action, ForwardWires):
+                    link.send_wires(action.wires, action.peer)
+                elif action.urgent:
                     link.send_urgent(list(action.packets), action.peer)
                 else:
                     link.send(list(action.packets), action.peer)
