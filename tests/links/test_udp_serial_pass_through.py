@@ -7,7 +7,7 @@ from __future__ import annotations
 import asyncio
 import random
 import socket
-from collections.abc import Awaitable
+from collections.abc import Awaitable, Callable
 from typing import Any, TypeVar
 
 import pytest
@@ -72,6 +72,19 @@ def traffic(seed: int) -> list[list[bytes]]:
     return bursts
 
 
+async def send_bursts(node: RouterNode, tx: socket.socket, port: int,
+                      bursts: list[list[bytes]], after_each: Callable[[], object]) -> None:
+    """The operator heard once first (its route learned, as in a running relay), then
+    each burst sent back to back, with ``after_each`` (reading what came out) between."""
+    tx.sendto(pack_datagram([msg(OPERATOR, RELAY, b"", sequence=60000)]), (HOST, port))
+    await until(lambda: node.router.stats().counters.get("received", 0) >= 1)
+    for burst in bursts:
+        for datagram in burst:
+            tx.sendto(datagram, (HOST, port))
+        await asyncio.sleep(0.003)
+        after_each()
+
+
 async def relay_traffic(bursts: list[list[bytes]], url_options: str, pass_through: bool
                         ) -> tuple[bytes, dict[str, Any]]:
     port = free_port((HOST, SENDER))
@@ -96,14 +109,7 @@ async def relay_traffic(bursts: list[list[bytes]], url_options: str, pass_throug
     tx.bind((SENDER, 0))
     line = bytearray()
     try:
-        # the operator is heard once first (its route learned), as in a running relay
-        tx.sendto(pack_datagram([msg(OPERATOR, RELAY, b"", sequence=60000)]), (HOST, port))
-        await until(lambda: node.router.stats().counters.get("received", 0) >= 1)
-        for burst in bursts:
-            for datagram in burst:
-                tx.sendto(datagram, (HOST, port))
-            await asyncio.sleep(0.003)
-            line += pty.read()
+        await send_bursts(node, tx, port, bursts, lambda: line.extend(pty.read()))
         expected = sum(1 for burst in bursts for _ in burst)
         await until(lambda: node.links["lan"].counters.messages_in
                     + node.links["lan"].counters.malformed >= expected - 10, 5.0)
@@ -176,13 +182,7 @@ async def relay_udp(bursts: list[list[bytes]], pass_through: bool
                 return
 
     try:
-        tx.sendto(pack_datagram([msg(OPERATOR, RELAY, b"", sequence=60000)]), (HOST, port))
-        await until(lambda: node.router.stats().counters.get("received", 0) >= 1)
-        for burst in bursts:
-            for datagram in burst:
-                tx.sendto(datagram, (HOST, port))
-            await asyncio.sleep(0.003)
-            drain()
+        await send_bursts(node, tx, port, bursts, drain)
         await asyncio.sleep(0.2)
         drain()
         stats = {name: link.stats().as_dict() for name, link in node.links.items()}
