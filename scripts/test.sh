@@ -15,6 +15,13 @@
 # cores. Each part's output is shown at the end. A run in which no part collects a test
 # (exit 5) is a failure. EDGE_VIS_TEST_SERIAL=1 runs `pytest tests/` as one process.
 #
+# Tests bind fixed loopback addresses (127.0.0.N:3794, as JAUS nodes do), so two pytest
+# processes side by side could reach for the same one. Where the script runs as root and
+# `unshare` and `ip` exist, each pytest process therefore gets a network namespace of its
+# own with only its loopback up: addresses, ports, DDS domains and abstract Unix sockets
+# of one part never meet another's. Elsewhere the parts share the host's loopback, and
+# the tests' own address ranges keep them apart. EDGE_VIS_TEST_NETNS=0 turns this off.
+#
 # Then a second pass on the DDS Security binding: `scripts/setup.sh --secure` (Debian's
 # Cyclone DDS 0.10.2 with its security plugins, .venv-secure; set up in the background
 # while the first pass runs) and pytest on the tests where that binding behaves
@@ -43,6 +50,7 @@ PART_A=(tests/faults tests/udt tests/bandwidth tests/codec tests/catalogue tests
         tests/routing)
 PART_B=(tests/e2e tests/deploy tests/dds tests/engine tests/links tests/sim)
 SERIAL="${EDGE_VIS_TEST_SERIAL:-0}"
+NETNS="${EDGE_VIS_TEST_NETNS:-auto}"
 LOGS="$(mktemp -d "${TMPDIR:-/tmp}/edge-vis-test.XXXXXX")"
 trap 'rm -rf "$LOGS"' EXIT
 
@@ -92,10 +100,20 @@ if ! "$VPY" -m mypy; then
     status=1
 fi
 
+# the command prefix that puts one pytest process in a network namespace of its own
+# (empty where that cannot be done here; see the header)
+isolate=()
+if [[ "$NETNS" != 0 && "$(id -u)" == 0 ]] && command -v unshare >/dev/null 2>&1 \
+        && command -v ip >/dev/null 2>&1 \
+        && unshare --net -- ip link set lo up >/dev/null 2>&1; then
+    isolate=(unshare --net -- sh -c 'ip link set lo up && exec "$@"' isolated)
+    echo "test: each pytest process runs in a network namespace of its own" >&2
+fi
+
 # pytest NAME PYTHON ARGS...: one pytest run, its exit status in $LOGS/NAME.rc
 run_pytest() {
     local name="$1" py="$2"; shift 2
-    timeout --foreground -k 30 "$TIMEOUT" "$py" -m pytest -q "$@"
+    timeout --foreground -k 30 "$TIMEOUT" "${isolate[@]}" "$py" -m pytest -q "$@"
     echo $? >"$LOGS/$name.rc"
 }
 

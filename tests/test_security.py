@@ -100,7 +100,7 @@ def test_refused_operators_never_reach_the_vehicle(monkeypatch: pytest.MonkeyPat
 
     monkeypatch.setenv("CYCLONEDDS_URI", dds.loopback_config())
     domain, partition = 180 + int(time.time()) % 40, f"edge-vis-sec-{uuid.uuid4().hex[:8]}"
-    relay_ip, vehicle_ip = "127.0.0.196", "127.0.0.197"
+    relay_ip, vehicle_ip = "127.0.0.198", "127.0.0.199"
     profile = from_mapping({
         "relay": {"jaus_id": "200.1.1", "authority": 150},
         "links": {"lan": {"url": f"udp://{relay_ip}:3794?peers={vehicle_ip}:3794"}},

@@ -65,8 +65,8 @@ async def _until(operator: Any, topic: str, sample: dict[str, Any], reader_topic
 
 
 @pytest.mark.parametrize(("name", "octet", "names"), [
-    ("eod-v2", 193, ["turret", "shoulder", "slide"]),
-    ("eod-v1", 195, ["", "", ""]),
+    ("eod-v2", 101, ["turret", "shoulder", "slide"]),
+    ("eod-v1", 103, ["", "", ""]),
 ], ids=["v2.0", "v1.0"])
 def test_simulated_arm_and_pan_tilt_end_to_end(name: str, octet: int, names: list[str],
                                                domain_id: int, partition: str,

@@ -272,7 +272,7 @@ def test_hmi_operator_interface_inputs_reach_dds(domain_id: int, partition: str)
         assert stick["x"] == pytest.approx(-0.5, abs=1e-4) and stick["yaw"] == 1.0
         assert stick["y"] != stick["y"]  # an axis the device did not report is NaN
 
-    asyncio.run(relay_with(peer, 161, domain_id, partition, body))
+    asyncio.run(relay_with(peer, 111, domain_id, partition, body))
 
 
 # ------------------------------------------------------------------------------ generic
