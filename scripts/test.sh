@@ -17,10 +17,12 @@
 #
 # Tests bind fixed loopback addresses (127.0.0.N:3794, as JAUS nodes do), so two pytest
 # processes side by side could reach for the same one. Where the script runs as root and
-# `unshare` and `ip` exist, each pytest process therefore gets a network namespace of its
-# own with only its loopback up: addresses, ports, DDS domains and abstract Unix sockets
-# of one part never meet another's. Elsewhere the parts share the host's loopback, and
-# the tests' own address ranges keep them apart. EDGE_VIS_TEST_NETNS=0 turns this off.
+# `unshare` and `ip` exist, every pytest process but part B's therefore gets a network
+# namespace of its own with only its loopback up: addresses, ports, DDS domains and
+# abstract Unix sockets of one process never meet another's. Part B stays on the host's
+# network (tests/deploy builds a bundle with pip from the package registry). Elsewhere
+# the processes share the host's loopback, and the tests' own address ranges keep them
+# apart. EDGE_VIS_TEST_NETNS=0 turns this off.
 #
 # Then a second pass on the DDS Security binding: `scripts/setup.sh --secure` (Debian's
 # Cyclone DDS 0.10.2 with its security plugins, .venv-secure; set up in the background
@@ -107,13 +109,17 @@ if [[ "$NETNS" != 0 && "$(id -u)" == 0 ]] && command -v unshare >/dev/null 2>&1 
         && command -v ip >/dev/null 2>&1 \
         && unshare --net -- ip link set lo up >/dev/null 2>&1; then
     isolate=(unshare --net -- sh -c 'ip link set lo up && exec "$@"' isolated)
-    echo "test: each pytest process runs in a network namespace of its own" >&2
+    [[ "$SERIAL" == 1 ]] || echo "test: part A, the rest and the secure pass each run in a network namespace of their own" >&2
 fi
 
-# pytest NAME PYTHON ARGS...: one pytest run, its exit status in $LOGS/NAME.rc
+# pytest NAME PYTHON ARGS...: one pytest run, its exit status in $LOGS/NAME.rc (part A,
+# the rest and the secure pass each in a namespace of its own where possible; part B and
+# a serial run on the host's network)
 run_pytest() {
     local name="$1" py="$2"; shift 2
-    timeout --foreground -k 30 "$TIMEOUT" "${isolate[@]}" "$py" -m pytest -q "$@"
+    local prefix=()
+    [[ "$SERIAL" != 1 && "$name" != b ]] && prefix=("${isolate[@]}")
+    timeout --foreground -k 30 "$TIMEOUT" "${prefix[@]}" "$py" -m pytest -q "$@"
     echo $? >"$LOGS/$name.rc"
 }
 
