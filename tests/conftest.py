@@ -6,6 +6,20 @@ Cyclone is configured for loopback only (``edge_vis.dds.loopback_config``: inter
 for the whole session so child processes inherit it. Every test gets its own DDS domain id
 and a partition of its own, so concurrent test runs on the same host never see each
 other's samples.
+
+Loopback addresses. Tests that run JAUS nodes bind fixed loopback addresses on port 3794,
+and ``scripts/test.sh`` runs its parts side by side (each in a network namespace of its
+own when it runs as root, all on one loopback otherwise), so each file keeps addresses of
+its own. A new test takes addresses outside these:
+
+* part A: ``tests/faults`` 127.0.0.150-189 and 127.44.*;
+* part B: ``tests/e2e`` 127.0.0.31-34, 41-54, 61-64, 81-83, 87-95, 101-104, 111-112,
+  141-147, 171-174, 221-224, 231-243, 245-246, 251-252 and 127.0.19.*; ``tests/sim``
+  127.0.0.71-74 and 88-89; ``tests/links`` 127.0.0.2-4 (on free ports);
+* the rest: ``tests/test_limits.py`` 127.0.0.190-191, ``tests/test_security.py``
+  198-199, ``tests/test_demo.py`` 75-76 (and the demo's own claimed slots);
+* the DDS Security pass, beside parts A and B: ``tests/dds/test_dds_security.py``
+  127.0.0.206-207, besides files of part B and the rest.
 """
 
 from __future__ import annotations
