@@ -36,7 +36,10 @@ table; asserts nothing. ``--only`` runs some rows (comma-separated: ``loopback``
   sat idle while the data flowed (and of that, in the data's first and last second), how
   long after the last data packet the clock stopped, and the link's busy time (data
   packets, and control packets: UDT's ACK2 and NAK, manifests). A row's time is the sum
-  of the first, the second, the third and the busy time.
+  of the first, the second, the third and the busy time. Of the control time, the row
+  says how much went to its commonest size of packet: on the data's way, UDT's 20-byte
+  ACK2, which each lane's connection sends for every ACK its receiver sends (about every
+  10 ms while data flows), so the more lanes send at once, the more of them.
 * ``resume``: a loopback transfer held to 80 Mbit/s is cut (receiver closes every
   connection); the figure is the time from the cut until the receiver has accepted the
   resumed transfer at its offset, with the sender's default backoff.
@@ -60,8 +63,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from lossy_proxy import separate_process
 
+from edge_vis.tools.lossy_udp import Timeline
 from links.udt import UdtBulkChannel
 
+RADIO_BPS = 10e6
+"""The emulated radio's rate."""
 _RUN = itertools.count()
 """Each run's own folders and files: a repeated row must not find the last one's spool."""
 
@@ -96,7 +102,17 @@ def _where(counters: dict, started: float, ended: float) -> str:
             f"{line.idle(first, first + 1) * 1000:.0f}, last s "
             f"{line.idle(last - 1, last) * 1000:.0f}), done {(ended - last) * 1000:.0f} ms "
             f"after it; radio busy {line.busy_full + line.busy_small:.2f} s (control "
-            f"{line.busy_small * 1000:.0f} ms)")
+            f"{line.busy_small * 1000:.0f} ms{_most_control(line)})")
+
+
+def _most_control(line: Timeline) -> str:
+    """Which size of control packet took most of the link's control time: on the data's
+    way, UDT's 20-byte ACK2s (see the module doc)."""
+    if not line.small_sizes:
+        return ""
+    size, count = max(line.small_sizes.items(), key=lambda kv: kv[0] * kv[1])
+    return (f", {size * count * 8 / RADIO_BPS * 1000:.0f} ms of it {count:,} packets of "
+            f"{size} bytes")
 
 
 def _paced(history: list) -> str:
@@ -140,7 +156,7 @@ def radio(folder: Path, size: int, loss: float, lanes: int, max_rate: int | None
     run = next(_RUN)
     path, manifest = _file(folder, size, f"radio{lanes}{loss}{max_rate}-{run}.bin")
     with UdtBulkChannel.ImageService(folder / f"radio{lanes}{loss}{max_rate}-{run}") as svc, \
-            separate_process(svc.address, loss=loss, delay=0.020, rate_bps=10e6,
+            separate_process(svc.address, loss=loss, delay=0.020, rate_bps=RADIO_BPS,
                              queue_bytes=64 * 1024, seed=1, lifetime=600,
                              timeline=True) as (address, counters), \
             UdtBulkChannel.BulkSender(address, max_rate_bps=max_rate, lanes=lanes,
@@ -170,7 +186,7 @@ def forwarded(folder: Path, size: int, loss: float) -> tuple[float, str]:
 
     with UdtBulkChannel.ImageService(folder / f"operator{run}", publish_data=False,
                                      publish=seen("operator", "ImageProduct")) as ops, \
-            separate_process(ops.address, loss=loss, delay=0.020, rate_bps=10e6,
+            separate_process(ops.address, loss=loss, delay=0.020, rate_bps=RADIO_BPS,
                              queue_bytes=64 * 1024, seed=1, lifetime=600,
                              timeline=True) as (address, counters), \
             UdtBulkChannel.ImageService(folder / f"relay{run}", forward=[address],
@@ -203,7 +219,7 @@ def pulled(folder: Path, size: int, loss: float) -> tuple[float, str]:
             verified.append(time.perf_counter())
 
     with UdtBulkChannel.ImageServer(served, vehicle_id="uuv1") as server, \
-            separate_process(server.address, loss=loss, delay=0.020, rate_bps=10e6,
+            separate_process(server.address, loss=loss, delay=0.020, rate_bps=RADIO_BPS,
                              queue_bytes=64 * 1024, seed=1, lifetime=600,
                              timeline=True) as (address, counters), \
             UdtBulkChannel.ImageService(folder / f"puller{loss}-{run}", publish=publish,

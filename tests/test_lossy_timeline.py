@@ -41,6 +41,7 @@ def test_the_timeline_says_when_the_link_carried_data_and_when_it_sat_idle(sink)
     # the busy time is the bytes at the link's rate, whatever the clock did
     assert up.busy_full == pytest.approx(20 * 1200 * 8 / RATE)
     assert up.busy_small == pytest.approx(5 * 100 * 8 / RATE)
+    assert up.small_sizes == {100: 5}  # which control packets the control time went to
     assert started <= up.first_full < up.last_full
     # the pause between the bursts (0.4 s less the first burst's 0.1 s on the link) is
     # the idle time while data flowed; loose bounds: the test's own sleeps are not exact

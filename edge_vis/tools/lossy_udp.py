@@ -65,6 +65,9 @@ class Timeline:
     #: seconds the link spent sending datagrams of ``FULL_BYTES`` or more, and smaller ones
     busy_full: float = 0.0
     busy_small: float = 0.0
+    #: how many smaller datagrams of each size the link sent (which kinds of control
+    #: packet its control time went to)
+    small_sizes: Counter[int] = field(default_factory=Counter)
     _free: float | None = None
 
     def carried(self, start: float, end: float, size: int) -> None:
@@ -78,6 +81,7 @@ class Timeline:
             self.last_full = end
         else:
             self.busy_small += end - start
+            self.small_sizes[size] += 1
 
     def idle(self, since: float, until: float) -> float:
         """Seconds the link was idle between ``since`` and ``until`` (from its first
