@@ -518,7 +518,10 @@ class WaypointMissions:
                 mission.state = "FAILED"
                 return [self._status(vehicle_id, ctx)]
             if load.state == "EXECUTING":
-                mission.state = "EXECUTING"
+                # ExecuteList starts the driver at element 1. Its every-change
+                # ReportActiveElement says so only if that is a change: a driver already
+                # at element 1 of the list this one replaced sends nothing.
+                mission.active, mission.state = 0, "EXECUTING"
             actions: list[Action] = list(steps)
             if mission.state != "PENDING":
                 actions.append(self._status(vehicle_id, ctx))
