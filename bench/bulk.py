@@ -68,6 +68,9 @@ from links.udt import UdtBulkChannel
 
 RADIO_BPS = 10e6
 """The emulated radio's rate."""
+RADIO = {"delay": 0.020, "rate_bps": RADIO_BPS, "queue_bytes": 64 * 1024, "seed": 1,
+         "lifetime": 600, "timeline": True}
+"""The emulated radio of every radio row (with the row's loss): see the module doc."""
 _RUN = itertools.count()
 """Each run's own folders and files: a repeated row must not find the last one's spool."""
 
@@ -103,6 +106,11 @@ def _where(counters: dict, started: float, ended: float) -> str:
             f"{line.idle(last - 1, last) * 1000:.0f}), done {(ended - last) * 1000:.0f} ms "
             f"after it; radio busy {line.busy_full + line.busy_small:.2f} s (control "
             f"{line.busy_small * 1000:.0f} ms{_most_control(line)})")
+
+
+def _of_link(mbps: float) -> str:
+    """A goodput as a share of the emulated radio's rate."""
+    return f"{mbps * 1e6 / RADIO_BPS * 100:.1f} %"
 
 
 def _most_control(line: Timeline) -> str:
@@ -156,9 +164,7 @@ def radio(folder: Path, size: int, loss: float, lanes: int, max_rate: int | None
     run = next(_RUN)
     path, manifest = _file(folder, size, f"radio{lanes}{loss}{max_rate}-{run}.bin")
     with UdtBulkChannel.ImageService(folder / f"radio{lanes}{loss}{max_rate}-{run}") as svc, \
-            separate_process(svc.address, loss=loss, delay=0.020, rate_bps=RADIO_BPS,
-                             queue_bytes=64 * 1024, seed=1, lifetime=600,
-                             timeline=True) as (address, counters), \
+            separate_process(svc.address, loss=loss, **RADIO) as (address, counters), \
             UdtBulkChannel.BulkSender(address, max_rate_bps=max_rate, lanes=lanes,
                                       give_up_after=120) as sender:
         started = time.perf_counter()
@@ -186,9 +192,7 @@ def forwarded(folder: Path, size: int, loss: float) -> tuple[float, str]:
 
     with UdtBulkChannel.ImageService(folder / f"operator{run}", publish_data=False,
                                      publish=seen("operator", "ImageProduct")) as ops, \
-            separate_process(ops.address, loss=loss, delay=0.020, rate_bps=RADIO_BPS,
-                             queue_bytes=64 * 1024, seed=1, lifetime=600,
-                             timeline=True) as (address, counters), \
+            separate_process(ops.address, loss=loss, **RADIO) as (address, counters), \
             UdtBulkChannel.ImageService(folder / f"relay{run}", forward=[address],
                                         publish=seen("relay", "TransferStatus",
                                                      "TRANSFER_COMPLETE"),
@@ -219,9 +223,7 @@ def pulled(folder: Path, size: int, loss: float) -> tuple[float, str]:
             verified.append(time.perf_counter())
 
     with UdtBulkChannel.ImageServer(served, vehicle_id="uuv1") as server, \
-            separate_process(server.address, loss=loss, delay=0.020, rate_bps=RADIO_BPS,
-                             queue_bytes=64 * 1024, seed=1, lifetime=600,
-                             timeline=True) as (address, counters), \
+            separate_process(server.address, loss=loss, **RADIO) as (address, counters), \
             UdtBulkChannel.ImageService(folder / f"puller{loss}-{run}", publish=publish,
                                         publish_data=False,
                                         sources={"*": f"{address[0]}:{address[1]}"}) as relay:
@@ -308,7 +310,7 @@ def main() -> None:
                     good, c, history, where = radio(folder, size, loss, lanes, max_rate)
                     steps = _paced(history) if lanes == 0 else ""
                     rows.append((f"radio 10M/{loss:.0%}/20ms, {label}", f"{good:7.2f} Mbit/s",
-                                 f"{good / 10 * 100:.1f} % of link; {size >> 20} MiB; proxy "
+                                 f"{_of_link(good)} of link; {size >> 20} MiB; proxy "
                                  f"lost {c.get('up_lost', 0)}+{c.get('down_lost', 0)}, "
                                  f"queue-dropped {c.get('up_queue_drop', 0)}"
                                  + (f"; {steps}" if steps else "") + f"; {where}"))
@@ -316,14 +318,14 @@ def main() -> None:
             for _ in range(args.repeat if "forwarder" in only else 0):
                 good, where = forwarded(folder, radio_size, loss)
                 rows.append((f"radio 10M/{loss:.0%}/20ms, relay forwarder, adaptive",
-                             f"{good:7.2f} Mbit/s", f"{good / 10 * 100:.1f} % of link; "
+                             f"{good:7.2f} Mbit/s", f"{_of_link(good)} of link; "
                              f"{radio_size >> 20} MiB, relay verified -> operator verified; "
                              f"{where}"))
         for loss in (0.02, 0.0):
             for _ in range(args.repeat if "pull" in only else 0):
                 good, where = pulled(folder, radio_size, loss)
                 rows.append((f"radio 10M/{loss:.0%}/20ms, relay pulls (serve-images)",
-                             f"{good:7.2f} Mbit/s", f"{good / 10 * 100:.1f} % of link; "
+                             f"{good:7.2f} Mbit/s", f"{_of_link(good)} of link; "
                              f"{radio_size >> 20} MiB, announced -> relay verified; {where}"))
         delays = resume_time(folder, 3 if not args.quick else 1) if "resume" in only else []
         if delays:
