@@ -70,9 +70,15 @@ class _PacedFetch:
     #: lane sender -> (its segment under way or None, bytes of it acknowledged)
     lanes: dict[BulkSender, tuple[tuple[int, int] | None, int]] = field(default_factory=dict)
     done: int = 0  # bytes of the segments served
+    #: lane sender -> the length of its segment under way
+    lengths: dict[BulkSender, int] = field(default_factory=dict)
+    #: the segments asked for so far: once all of them, the fetch is in its last segments
+    asked: set[int] = field(default_factory=set)
 
-    def serving(self, sender: BulkSender, segment: tuple[int, int]) -> None:
+    def serving(self, sender: BulkSender, segment: tuple[int, int], length: int) -> None:
         self.lanes[sender] = (segment, 0)
+        self.lengths[sender] = length
+        self.asked.add(segment[0])
         sender.cap(self.rate.joining(sum(s is not None for s, _ in self.lanes.values())))
 
     def served(self, sender: BulkSender, length: int) -> None:
@@ -80,17 +86,25 @@ class _PacedFetch:
         self.lanes[sender] = (None, 0)
 
     def tick(self, now: float) -> None:
-        sending = []  # the round trips of the lanes with data on its way
+        sending = []  # the lanes with data on its way
+        count = None
         for sender, (segment, seen) in list(self.lanes.items()):
             ack = sender.acknowledged()
             if segment is not None and ack is not None and ack[0] == segment:
                 self.lanes[sender] = (segment, max(seen, ack[1]))
+                count = segment[1]
                 if ack[2]:
-                    sending.append(sender.round_trip())
+                    sending.append(sender)
         share = self.rate.share(now, self.done + sum(a for _, a in self.lanes.values()),
-                                sending)
-        for sender in self.lanes:
-            sender.cap(share)
+                                [sender.round_trip() for sender in sending])
+        caps = dict.fromkeys(self.lanes, share)
+        if sending and count is not None and len(self.asked) >= count:
+            # every segment asked for (the fetcher held none before): the last ones
+            # finish together, as LaneRun's do
+            left = [self.lengths.get(sender, 0) - self.lanes[sender][1] for sender in sending]
+            caps.update(zip(sending, self.rate.final(left), strict=True))
+        for sender, cap in caps.items():
+            sender.cap(cap)
 
 
 class ImageServer(UdtService):
@@ -199,6 +213,7 @@ class ImageServer(UdtService):
     def _leave(self, key: FetchKey, fetch: _PacedFetch, sender: BulkSender) -> None:
         with self._lock:
             fetch.lanes.pop(sender, None)
+            fetch.lengths.pop(sender, None)
             fetch.connections -= 1
             if fetch.connections <= 0 and self._fetches.get(key) is fetch:
                 del self._fetches[key]
@@ -278,7 +293,7 @@ class ImageServer(UdtService):
             if fetch is None:  # the fetch's budget, never above our own cap
                 fetch = joined[key] = self._join(key, rate)
             with self._lock:
-                fetch.serving(sender, event.segment)
+                fetch.serving(sender, event.segment, m.length)
                 sender.on_round_trip, sender.pace = self._pacing(fetch.rate)
         elif rate:  # the fetcher's share of its link budget, never above our own cap
             sender.cap(rate)

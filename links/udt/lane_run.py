@@ -9,10 +9,11 @@ a lane finishes a segment), feeds the bytes the receiver acknowledged and the la
 smoothed round trips to the rate probe, gives each lane with data still to leave an
 equal share of the rate (``UDT_MAXBW``; a lane waiting for an answer, for
 acknowledgements of data already sent, or for a receipt leaves its share to the
-others), starts lanes one per tick (each opens with a window of packets
-sent before any pacing applies) and, once every segment is handed out, takes a stalled
-one over on an idle lane (the receiver hands the segment to the newest connection and
-resumes it at the bytes it holds).
+others; once every segment is handed out, a share in proportion to what the lane has
+still to deliver, so that the last lanes finish together), starts lanes one per tick
+(each opens with a window of packets sent before any pacing applies) and, once every
+segment is handed out, takes a stalled one over on an idle lane (the receiver hands the
+segment to the newest connection and resumes it at the bytes it holds).
 
 :class:`SharedRate` is the pacing itself, shared with the image server, whose answers to
 a fetcher's lanes are paced the same way from the side that sends the data.
@@ -31,7 +32,7 @@ from typing import Any
 
 from links.udt.lane_plan import Pace, straggler
 from links.udt.protocol import MAX_LANES, Manifest, segment_bounds
-from links.udt.rate_probe import RateProbe, lane_share
+from links.udt.rate_probe import RateProbe, final_shares, lane_share
 
 log = logging.getLogger(__name__)
 
@@ -78,6 +79,15 @@ class SharedRate:
         if self.pace is not None and rate >= self.pace.rate_bps:
             share *= HEADROOM  # the budget's pacer holds the total
         return share
+
+    def final(self, remaining: Sequence[int]) -> list[float]:
+        """The sending lanes' shares once every segment is handed out, from the bytes
+        each has still to deliver (:func:`~links.udt.rate_probe.final_shares`), at the
+        rate :meth:`share` last found."""
+        shares = final_shares(self.control.rate_bps, remaining)
+        if self.pace is not None and self.control.rate_bps >= self.pace.rate_bps:
+            shares = [share * HEADROOM for share in shares]
+        return shares
 
 
 def _length(manifest: Manifest, index: int, count: int) -> int:
@@ -219,11 +229,16 @@ class LaneRun:
                 if shared is not None:
                     share = shared.share(now, acknowledged,
                                          [senders[lane].round_trip() for lane in busy])
-                    for lane in running:
-                        if shares.get(lane) != share:
-                            shares[lane] = share
+                    caps = dict.fromkeys(running, share)
+                    if not todo and busy:  # the last segments: finish together
+                        caps.update(zip(busy, shared.final(
+                            [_length(manifest, started[lane][0], count) - inflight[lane]
+                             for lane in busy]), strict=True))
+                    for lane, cap in caps.items():
+                        if shares.get(lane) != cap:
+                            shares[lane] = cap
                             if lane in senders:
-                                senders[lane].cap(share)
+                                senders[lane].cap(cap)
                 for lane in range(min(wanted, len(todo) + len(running))):
                     if lane not in running and todo and not failures:
                         start(lane)

@@ -35,6 +35,7 @@ UDT's own back-off still answers real congestion).
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 
@@ -200,3 +201,16 @@ class RateProbe:
 def lane_share(rate_bps: float, sending: int) -> float:
     """Each sending lane's cap so that together they keep to ``rate_bps``."""
     return rate_bps / max(1, sending)
+
+
+def final_shares(rate_bps: float, remaining: Sequence[int]) -> list[float]:
+    """Each sending lane's cap once no segment is left to hand out: in proportion to the
+    bytes it has still to deliver, so that the lanes finish together. With even shares
+    the lanes finish one by one and the last few, each held to its share until the next
+    look at the lanes, leave the radio idle at the very end. No lane gets less than a
+    quarter of an even share (a count that lags must not stall it)."""
+    even = lane_share(rate_bps, len(remaining))
+    total = sum(max(0, left) for left in remaining)
+    if total <= 0:
+        return [even] * len(remaining)
+    return [max(even / 4, rate_bps * max(0, left) / total) for left in remaining]

@@ -7,7 +7,7 @@ import random
 
 import pytest
 
-from links.udt.rate_probe import RateProbe, lane_share
+from links.udt.rate_probe import RateProbe, final_shares, lane_share
 
 BASE = 0.040  # the path's own round trip
 
@@ -201,3 +201,24 @@ def test_with_smoothed_round_trips_the_radio_stays_busy_and_its_queue_does_not_o
     (9.6e6, 16, 0.6e6), (9.6e6, 3, 3.2e6), (9.6e6, 0, 9.6e6)])
 def test_lane_share(rate, sending, share):
     assert lane_share(rate, sending) == pytest.approx(share)
+
+
+def test_the_last_lanes_share_the_rate_by_what_each_has_left_and_finish_together():
+    """Once no segment is left to hand out, a lane with three times the bytes left gets
+    three times the rate, the shares add up to the rate, and so every lane's last byte
+    leaves at the same moment: the radio is not left to one slow lane at the end."""
+    left = [300_000, 100_000, 100_000]
+    shares = final_shares(9.6e6, left)
+    assert sum(shares) == pytest.approx(9.6e6)
+    finish = [bytes_left * 8 / share for bytes_left, share in zip(left, shares, strict=True)]
+    assert max(finish) == pytest.approx(min(finish))
+    # equal shares would have left the first lane alone on the radio for its last 2/3
+    assert max(finish) < 300_000 * 8 / lane_share(9.6e6, 3)
+
+
+@pytest.mark.parametrize(("left", "least"), [
+    ([1_000_000, 0], 9.6e6 / 2 / 4),   # nothing counted as left: still a quarter share
+    ([0, 0], 9.6e6 / 2),               # nothing known: even shares
+    ([-5, 10], 9.6e6 / 2 / 4)])        # a count ahead of the segment's length
+def test_no_last_lane_is_starved_by_a_count_that_lags(left, least):
+    assert min(final_shares(9.6e6, left)) == pytest.approx(least)
