@@ -176,9 +176,9 @@ def radio(folder: Path, size: int, loss: float, lanes: int, max_rate: int | None
             _where(counters, started, started + elapsed))
 
 
-def forwarded(folder: Path, size: int, loss: float) -> tuple[float, str]:
+def forwarded(folder: Path, size: int, loss: float) -> tuple[float, str, list]:
     """Goodput (Mbit/s) of the relay's forwarder to the operator side, adaptive lanes,
-    and where the time went."""
+    where the time went and the rate probe's course."""
     run = next(_RUN)
     path, manifest = _file(folder, size, f"fwd{run}.bin")
     marks: dict[str, float] = {}
@@ -201,15 +201,16 @@ def forwarded(folder: Path, size: int, loss: float) -> tuple[float, str]:
         deadline = time.monotonic() + 180
         while "operator" not in marks and time.monotonic() < deadline:
             time.sleep(0.05)
+    history = relay.forwarders[0].rate_history  # set once its lanes are done
     if not result.ok or "operator" not in marks:
         raise SystemExit("forwarding failed")
     return (size * 8 / (marks["operator"] - marks["relay"]) / 1e6,
-            _where(counters, marks["relay"], marks["operator"]))
+            _where(counters, marks["relay"], marks["operator"]), history)
 
 
-def pulled(folder: Path, size: int, loss: float) -> tuple[float, str]:
+def pulled(folder: Path, size: int, loss: float) -> tuple[float, str, list]:
     """Goodput (Mbit/s) of the relay fetching an announced image from an image server,
-    and where the time went."""
+    where the time went and the image server's rate probe's course."""
     run = next(_RUN)
     served = folder / f"vehicle{loss}-{run}"
     served.mkdir()
@@ -237,7 +238,8 @@ def pulled(folder: Path, size: int, loss: float) -> tuple[float, str]:
             time.sleep(0.02)
     if not verified:
         raise SystemExit("fetch failed")
-    return size * 8 / (verified[0] - started) / 1e6, _where(counters, started, verified[0])
+    return (size * 8 / (verified[0] - started) / 1e6, _where(counters, started, verified[0]),
+            server.rate_history)
 
 
 def resume_time(folder: Path, runs: int) -> list[float]:
@@ -316,17 +318,18 @@ def main() -> None:
                                  + (f"; {steps}" if steps else "") + f"; {where}"))
         for loss in (0.02, 0.0):
             for _ in range(args.repeat if "forwarder" in only else 0):
-                good, where = forwarded(folder, radio_size, loss)
+                good, where, history = forwarded(folder, radio_size, loss)
                 rows.append((f"radio 10M/{loss:.0%}/20ms, relay forwarder, adaptive",
                              f"{good:7.2f} Mbit/s", f"{_of_link(good)} of link; "
                              f"{radio_size >> 20} MiB, relay verified -> operator verified; "
-                             f"{where}"))
+                             f"{_paced(history)}; {where}"))
         for loss in (0.02, 0.0):
             for _ in range(args.repeat if "pull" in only else 0):
-                good, where = pulled(folder, radio_size, loss)
+                good, where, history = pulled(folder, radio_size, loss)
                 rows.append((f"radio 10M/{loss:.0%}/20ms, relay pulls (serve-images)",
                              f"{good:7.2f} Mbit/s", f"{_of_link(good)} of link; "
-                             f"{radio_size >> 20} MiB, announced -> relay verified; {where}"))
+                             f"{radio_size >> 20} MiB, announced -> relay verified; "
+                             f"{_paced(history)}; {where}"))
         delays = resume_time(folder, 3 if not args.quick else 1) if "resume" in only else []
         if delays:
             rows.append(("resume after a drop", f"{statistics.median(delays) * 1000:7.0f} ms",

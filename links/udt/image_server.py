@@ -127,6 +127,8 @@ class ImageServer(UdtService):
         self._changed = threading.Event()  # a lane served its segment: pace again now
         self._manifests: dict[str, tuple[tuple[int, int], Manifest]] = {}
         self._fetches: dict[FetchKey, _PacedFetch] = {}
+        #: the rate probe's course in the last paced fetch that ended (time, bit/s, phase)
+        self.rate_history: list[tuple[float, float, str]] = []
         self._open = 0
         self.counters = {"connections": 0, "served": 0, "not_found": 0, "interrupted": 0}
 
@@ -217,6 +219,7 @@ class ImageServer(UdtService):
             fetch.connections -= 1
             if fetch.connections <= 0 and self._fetches.get(key) is fetch:
                 del self._fetches[key]
+                self.rate_history = list(fetch.rate.control.history)
 
     def _serve(self, sock: Any, peer: str) -> None:
         udt = udt4py()

@@ -20,11 +20,19 @@ them, a full queue all of them, so the least of two or more says the queue).
   is that delivery times a factor that brings the queue to ``target`` seconds within
   about ``settle`` seconds (between ``cut`` and ``lead``). Right after the start the
   delivery is taken over the last two steps, or the most delivered over two steps
-  lately if more (a lane held back by the start's losses does not pull it down).
+  lately if more (a lane held back by the start's losses does not pull it down); after
+  that, a step takes at most ``cut`` off the rate itself, however late the delivery.
+* A queue while the radio delivers less than ``stall`` times what it carried over the
+  last ``memory`` seconds (:meth:`carried_bps`) is no full radio but a stall: a busy
+  machine at either end or a dead spell on the path holds the data back and inflates
+  the round trips, which then lag the stall by half a second. The rate holds: followed
+  down, it reached a tenth of the radio's within two seconds and took longer than most
+  transfers to climb back.
 * While no queue stands the radio has room: up by ``up`` a step within ``lead`` times
   what the receiver acknowledged (lanes held back by UDT's own loss reaction must not
   all take a piled-up rate at once), and at once back to the most the radio delivered
-  lately (:meth:`peak_bps`) rather than by a creep.
+  lately (:meth:`peak_bps`) rather than by a creep; within ``memory`` seconds of a
+  stall, also up as fast as the start climbs, as far as the radio carried before it.
 
 The rate never falls below ``floor_bps``; with a budget it stays between ``near`` times
 the budget and the budget (the budget is the operator's word on what the radio carries
@@ -58,6 +66,8 @@ class RateProbe:
     near: float = 0.8
     target: float = 0.005
     window: float = 2.0
+    memory: float = 10.0
+    stall: float = 0.5
     settle: float = 0.35
     cut: float = 0.85
     floor_bps: float = 256e3
@@ -79,6 +89,7 @@ class RateProbe:
     _smoothed: float | None = None
     _paced_at: float = 0.0
     _peaks: deque[tuple[float, float]] = field(default_factory=deque)
+    _stalled: float | None = None
 
     def __post_init__(self) -> None:
         if not 0 < self.startup_step <= self.step <= self.span or self.initial_bps <= 0 \
@@ -121,11 +132,18 @@ class RateProbe:
         recent = self.delivered_bps(2 * self.step)
         if recent:
             self._peaks.append((now, recent))
-        while self._peaks and now - self._peaks[0][0] > self.window:
+        while self._peaks and now - self._peaks[0][0] > max(self.window, self.memory):
             self._peaks.popleft()
+        return self._second(now, self.window)
+
+    def carried_bps(self, now: float) -> float:
+        """As :meth:`peak_bps` (after it), over the last ``memory`` seconds."""
+        return self._second(now, self.memory)
+
+    def _second(self, now: float, over: float) -> float:
         # the second most: one sample that caught a burst of late acknowledgements is
         # not the radio's rate
-        ranked = sorted(rate for _, rate in self._peaks)
+        ranked = sorted(rate for at, rate in self._peaks if now - at <= over)
         return ranked[-2] if len(ranked) > 1 else 0.0
 
     def sample(self, now: float, acknowledged: int) -> float:
@@ -168,8 +186,15 @@ class RateProbe:
             # ended, at least two steps), less while the queue stands above the target.
             since = self.delivered_bps(min(self.span, max(2 * self.step, now - self._paced_at)))
             if now - self._paced_at < self.span:  # still covering the start's losses
-                since = max(since, peak)
-            rate = (since or delivered or rate) * self._toward_target()
+                rate = max(since, peak) * self._toward_target()
+            elif since < self.stall * self.carried_bps(now):
+                # A queue while the radio carries under half of what it carried lately
+                # is no full radio but a stall (a busy machine, a dead spell on the
+                # path), and the round trips it inflated lag it by half a second:
+                # following the delivery down would leave the rate there for seconds.
+                self._stalled = now
+            else:  # and by at most ``cut`` a step, however late the delivery
+                rate = max((since or delivered or rate) * self._toward_target(), self.cut * rate)
         elif self.queued <= self.room:
             if starting:
                 rate *= self.startup
@@ -177,6 +202,11 @@ class RateProbe:
                     rate = min(rate, max(self.initial_bps, self.ahead * delivered))
             elif delivered:
                 rate = max(min(rate * self.up, self.lead * delivered), peak, self.floor_bps)
+                if self._stalled is not None and now - self._stalled <= self.memory:
+                    # after a stall: back up as the start climbs, as far as the radio
+                    # carried before it
+                    rate = max(rate, min(self.rate_bps * self.startup ** (
+                        self.step / self.startup_step), self.carried_bps(now)))
             else:
                 rate *= self.up
         return self._set(self._clamp(rate), now)

@@ -1113,6 +1113,11 @@ class Forwarder:
         self._thread: threading.Thread | None = None
         self.counters = {"forwarded": 0, "rejected": 0}
 
+    @property
+    def rate_history(self) -> list[tuple[float, float, str]]:
+        """The rate probe's course in the last file forwarded (time, bit/s, phase)."""
+        return self._sender.rate_history
+
     def start(self) -> Forwarder:
         self._thread = threading.Thread(target=self._run, name=f"udt-fwd-{self.name}",
                                         daemon=True)

@@ -133,8 +133,8 @@ def test_floor():
 
 
 def radio(probe: RateProbe, capacity: float, loss: float, seconds: float, seed: int = 1,
-          smoothed: bool = False, excess: float = 0.0, after: float = 1.0
-          ) -> tuple[list[float], dict[str, float]]:
+          smoothed: bool = False, excess: float = 0.0, after: float = 1.0,
+          stall: tuple[float, float] = (0.0, 0.0)) -> tuple[list[float], dict[str, float]]:
     """A transfer through a radio of ``capacity`` bit/s with a 64 KiB queue: the lanes
     send at the probe's rate (``excess`` more: a lane that starts a segment takes its
     share before the others give theirs up), the queue fills with what exceeds the radio
@@ -142,7 +142,8 @@ def radio(probe: RateProbe, capacity: float, loss: float, seconds: float, seed: 
     per step, waiting behind the queue (``loss`` delays an answer by a retransmission),
     or with ``smoothed`` the connections' smoothed round trip. Returns the rate after
     each step, and bits delivered and dropped, and seconds the radio idled, from
-    ``after`` seconds on."""
+    ``after`` seconds on. ``stall`` (from, seconds): the path carries nothing meanwhile
+    (a busy machine at either end, a dead spell), and its queue fills."""
     rng = random.Random(seed)
     queue, limit = 0.0, 64 * 1024 * 8
     run = Drive(probe)
@@ -156,7 +157,8 @@ def radio(probe: RateProbe, capacity: float, loss: float, seconds: float, seed: 
             trips = [BASE + queue / capacity + (0.25 if rng.random() < 3 * loss else 0.0)
                      for _ in range(3)]
         sent = probe.rate_bps * (1 + excess) * step
-        carried = min(capacity * step, queue + sent)
+        stalled = stall[0] <= run.now < stall[0] + stall[1]
+        carried = 0.0 if stalled else min(capacity * step, queue + sent)
         queue += sent - carried
         if run.now >= after:
             seen["delivered"] += carried * (1 - loss)
@@ -195,6 +197,19 @@ def test_with_smoothed_round_trips_the_radio_stays_busy_and_its_queue_does_not_o
     assert seen["dropped"] <= drops * seen["delivered"]
     settled = rates[len(rates) // 3:]
     assert max(settled) * (1 + excess) <= 1.1 * capacity
+
+
+@pytest.mark.parametrize("seconds", [0.5, 1.0, 2.0, 4.0])
+def test_a_stall_does_not_leave_the_rate_down_once_the_radio_carries_again(seconds):
+    """A path that carries nothing for a while with its queue full reads as a full radio
+    that delivers nothing: following that delivery took the rate to a tenth of the
+    radio's, and the climb back took longer than most transfers. The rate holds through
+    the stall, and within half a second of its end the radio is busy again."""
+    end = 5.0 + seconds
+    rates, seen = radio(RateProbe(), 10e6, 0.0, seconds=end + 5, smoothed=True,
+                        after=end + 0.5, stall=(5.0, seconds))
+    assert seen["delivered"] >= 0.97 * 10e6 * 4.5
+    assert min(rates) >= 0.5 * 10e6
 
 
 @pytest.mark.parametrize(("rate", "sending", "share"), [

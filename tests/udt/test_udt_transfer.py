@@ -67,6 +67,8 @@ def test_20mb_vehicle_to_relay_to_operator(tmp_path: Path, make_file):
         wait_for(lambda: relay.spool.reserved_bytes() == 0, 20, "the relay to forward")
         assert sha(final.read_bytes()) == sha(content)
         assert list((tmp_path / "relay" / ".spool" / "ready").iterdir()) == []
+    # the forwarder's lanes were paced: the course of their rate, for the bench
+    assert relay.forwarders[0].rate_history[0][1:] == (6e6, "startup")
     topics = [t for t, _ in published]
     (product,) = [s for t, s in published if t == "ImageProduct"]
     assert product["file_name"] == "sonar_0001.png" and product["sha256"] == sha(content)
