@@ -25,9 +25,10 @@ them, a full queue all of them, so the least of two or more says the queue).
 * A queue while the radio delivers less than ``stall`` times what it carried over the
   last ``memory`` seconds (:meth:`carried_bps`) is no full radio but a stall: a busy
   machine at either end or a dead spell on the path holds the data back and inflates
-  the round trips, which then lag the stall by half a second. The rate holds: followed
-  down, it reached a tenth of the radio's within two seconds and took longer than most
-  transfers to climb back.
+  the round trips, which then lag the stall by half a second. The rate holds for up to
+  ``hold`` seconds, then follows by at most ``cut`` a step (a radio that really carries
+  less): followed at once, it reached a tenth of the radio's within two seconds and took
+  longer than most transfers to climb back.
 * While no queue stands the radio has room: up by ``up`` a step within ``lead`` times
   what the receiver acknowledged (lanes held back by UDT's own loss reaction must not
   all take a piled-up rate at once), and at once back to the most the radio delivered
@@ -68,6 +69,7 @@ class RateProbe:
     window: float = 2.0
     memory: float = 10.0
     stall: float = 0.5
+    hold: float = 1.0
     settle: float = 0.35
     cut: float = 0.85
     floor_bps: float = 256e3
@@ -90,6 +92,7 @@ class RateProbe:
     _paced_at: float = 0.0
     _peaks: deque[tuple[float, float]] = field(default_factory=deque)
     _stalled: float | None = None
+    _stall_began: float | None = None
 
     def __post_init__(self) -> None:
         if not 0 < self.startup_step <= self.step <= self.span or self.initial_bps <= 0 \
@@ -185,15 +188,22 @@ class RateProbe:
             # Full: pace at what the radio delivers (over what came since the start
             # ended, at least two steps), less while the queue stands above the target.
             since = self.delivered_bps(min(self.span, max(2 * self.step, now - self._paced_at)))
+            stalled = since < self.stall * self.carried_bps(now)
+            if not stalled:
+                self._stall_began = None
+            elif self._stall_began is None:
+                self._stall_began = now
             if now - self._paced_at < self.span:  # still covering the start's losses
                 rate = max(since, peak) * self._toward_target()
-            elif since < self.stall * self.carried_bps(now):
+            elif stalled and now - (self._stall_began or now) < self.hold:
                 # A queue while the radio carries under half of what it carried lately
                 # is no full radio but a stall (a busy machine, a dead spell on the
                 # path), and the round trips it inflated lag it by half a second:
                 # following the delivery down would leave the rate there for seconds.
                 self._stalled = now
             else:  # and by at most ``cut`` a step, however late the delivery
+                if stalled:
+                    self._stalled = now
                 rate = max((since or delivered or rate) * self._toward_target(), self.cut * rate)
         elif self.queued <= self.room:
             if starting:

