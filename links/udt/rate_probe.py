@@ -188,23 +188,22 @@ class RateProbe:
             # Full: pace at what the radio delivers (over what came since the start
             # ended, at least two steps), less while the queue stands above the target.
             since = self.delivered_bps(min(self.span, max(2 * self.step, now - self._paced_at)))
+            # A queue while the radio carries under half of what it carried lately is no
+            # full radio but a stall (a busy machine, a dead spell on the path), and the
+            # round trips it inflated lag it by half a second: following the delivery
+            # down would leave the rate there for seconds.
             stalled = since < self.stall * self.carried_bps(now)
-            if not stalled:
-                self._stall_began = None
-            elif self._stall_began is None:
-                self._stall_began = now
+            began = self._stall_began if stalled and self._stall_began is not None else now
+            self._stall_began = began if stalled else None
             if now - self._paced_at < self.span:  # still covering the start's losses
                 rate = max(since, peak) * self._toward_target()
-            elif stalled and now - (self._stall_began or now) < self.hold:
-                # A queue while the radio carries under half of what it carried lately
-                # is no full radio but a stall (a busy machine, a dead spell on the
-                # path), and the round trips it inflated lag it by half a second:
-                # following the delivery down would leave the rate there for seconds.
-                self._stalled = now
-            else:  # and by at most ``cut`` a step, however late the delivery
+            else:
                 if stalled:
                     self._stalled = now
-                rate = max((since or delivered or rate) * self._toward_target(), self.cut * rate)
+                if not stalled or now - began >= self.hold:  # held for up to ``hold``,
+                    # then by at most ``cut`` a step, however late the delivery
+                    rate = max((since or delivered or rate) * self._toward_target(),
+                               self.cut * rate)
         elif self.queued <= self.room:
             if starting:
                 rate *= self.startup
