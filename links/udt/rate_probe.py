@@ -34,6 +34,10 @@ them, a full queue all of them, so the least of two or more says the queue).
   all take a piled-up rate at once), and at once back to the most the radio delivered
   lately (:meth:`peak_bps`) rather than by a creep; within ``memory`` seconds of a
   stall, also up as fast as the start climbs, as far as the radio carried before it.
+  Once no queue has shown for ``span`` seconds while the delivery grew by ``grow`` over
+  them, the delivery follows the rate, and a second's delivery lagging a rising rate
+  would hold it to a crawl (a start cut short by a late reading left it at 5-7 Mbit/s
+  for seconds on a 10 Mbit/s radio): up by ``climb`` a step, not waiting for it.
 
 The rate never falls below ``floor_bps``; with a budget it stays between ``near`` times
 the budget and the budget (the budget is the operator's word on what the radio carries
@@ -59,6 +63,8 @@ class RateProbe:
     startup: float = 1.14
     growth: float = 1.1
     up: float = 1.04
+    climb: float = 1.14
+    grow: float = 1.05
     drain: float = 0.95
     room: float = 0.006
     full: float = 0.020
@@ -93,6 +99,8 @@ class RateProbe:
     _peaks: deque[tuple[float, float]] = field(default_factory=deque)
     _stalled: float | None = None
     _stall_began: float | None = None
+    _clear_since: float | None = None
+    _deliveries: deque[tuple[float, float]] = field(default_factory=deque)
 
     def __post_init__(self) -> None:
         if not 0 < self.startup_step <= self.step <= self.span or self.initial_bps <= 0 \
@@ -170,6 +178,13 @@ class RateProbe:
         at_budget = bool(self.budget_bps) and delivered >= self.near * (self.budget_bps or 0)
         queue = not at_budget and (self.queued > self.room if smoothed is not None
                                    else self.queued >= self.full and answers >= 2)
+        self._deliveries.append((now, delivered))
+        while now - self._deliveries[0][0] > 2 * self.span:
+            self._deliveries.popleft()
+        if self.queued > self.room:
+            self._clear_since = None
+        elif self._clear_since is None:
+            self._clear_since = now
         if starting and delivered and not at_budget:
             if delivered > self._best * self.growth:
                 self._best, self._flat = delivered, 0
@@ -210,7 +225,11 @@ class RateProbe:
                 if delivered:
                     rate = min(rate, max(self.initial_bps, self.ahead * delivered))
             elif delivered:
-                rate = max(min(rate * self.up, self.lead * delivered), peak, self.floor_bps)
+                if self._roomy(now):  # delivery follows the rate: no need to wait for it
+                    rate *= self.climb
+                else:
+                    rate = min(rate * self.up, self.lead * delivered)
+                rate = max(rate, peak, self.floor_bps)
                 if self._stalled is not None and now - self._stalled <= self.memory:
                     # after a stall: back up as the start climbs, as far as the radio
                     # carried before it
@@ -219,6 +238,14 @@ class RateProbe:
             else:
                 rate *= self.up
         return self._set(self._clamp(rate), now)
+
+    def _roomy(self, now: float) -> bool:
+        """Whether the radio has shown no queue for ``span`` seconds while the delivery
+        grew by ``grow`` over it: the rate, not the radio, holds the delivery back."""
+        if self._clear_since is None or now - self._clear_since < self.span:
+            return False
+        before = next((d for t, d in self._deliveries if now - t <= self.span), 0.0)
+        return before > 0 and self._deliveries[-1][1] >= self.grow * before
 
     def _toward_target(self) -> float:
         """The factor on what the radio delivers that brings the queue to ``target``
