@@ -225,7 +225,7 @@ def test_a_start_cut_short_does_not_leave_the_rate_crawling(capacity, loss, busy
     Mbit/s. With no queue after it, the rate grew only as fast as the delivery it lags
     (a step takes it at most 5 % above the last second's): at 2 % loss it was still
     under 7 Mbit/s on a 10 Mbit/s radio 6 s later (over the first 8 s the radio was
-    busy 71 % of the time without loss, 61 % at 2 % loss, and 16 % at 50 Mbit/s). Once
+    busy 71 % of the time without loss, 62 % at 2 % loss, and 16 % at 50 Mbit/s). Once
     the radio shows no queue for a second while the delivery grows, the delivery follows
     the rate and the rate climbs without waiting for it."""
     _, seen = radio(RateProbe(), capacity, loss, seconds=8, smoothed=True, after=0.0,
