@@ -60,6 +60,9 @@ PACED_CHUNK = 64 * 1024
 """DATA payload size while a shared budget paces the lanes (finer steps, smaller bursts)."""
 CAP_POLL_MS = 40
 """Receive timeout of a paced lane's socket: how soon it takes a new share of the rate."""
+CLOSE_WAIT = 1.0
+"""Seconds a connection closed on a broken rule waits for its ERROR frame to be
+acknowledged (the listener's linger is as long)."""
 SNDBUF_MIN = 256 * 1024
 SNDBUF_MAX = 12 * 1024 * 1024
 
@@ -145,6 +148,14 @@ def _pending(sock: Any) -> int:
         return int(sock.UDT_SNDDATA) * (int(sock.UDT_MSS) - 44)
     except udt4py().UDTException:
         return 0
+
+
+def _delivered(sock: Any, timeout: float) -> None:
+    """Wait up to ``timeout`` seconds until the peer acknowledged everything sent: a fixed
+    pause let a loaded machine close the connection before its last ERROR frame left."""
+    deadline = time.monotonic() + timeout
+    while _pending(sock) and time.monotonic() < deadline:
+        time.sleep(0.01)
 
 
 def listen(bind: tuple[str, int], *, linger: int, max_rate_bps: int = 0) -> Any:
@@ -892,7 +903,7 @@ class BulkReceiver(UdtService):
                 if out:
                     _send_all(sock, out)
                 if conn.state is State.CLOSED:
-                    time.sleep(0.05)  # let UDT deliver the ERROR frame before closing
+                    _delivered(sock, CLOSE_WAIT)  # the ERROR frame reaches the peer
                     return self._local.outcome or FetchOutcome("lost", "protocol error")
                 if request is not None and self._local.outcome is not None:
                     return self._local.outcome  # type: ignore[no-any-return]
