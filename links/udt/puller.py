@@ -24,13 +24,14 @@ from links.udt.lane_plan import segments_for
 from links.udt.lane_run import LaneRun
 from links.udt.protocol import MAX_LANES, Manifest
 from links.udt.transfer import (
+    CLOSE_WAIT,
     BulkReceiver,
     ConnectionLost,
     FetchOutcome,
     FetchRequest,
     _close,
     _connect,
-    _pending,
+    _delivered,
 )
 
 log = logging.getLogger(__name__)
@@ -205,7 +206,5 @@ class _Lane:
         sock, self._sock = self._sock, None
         if sock is None:
             return
-        deadline = time.monotonic() + 1.0
-        while _pending(sock) and time.monotonic() < deadline:
-            time.sleep(0.01)  # let the receipt reach the vehicle before closing (no linger)
+        _delivered(sock, CLOSE_WAIT)  # the receipt reaches the vehicle (no linger here)
         _close(sock)

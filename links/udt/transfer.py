@@ -61,8 +61,8 @@ PACED_CHUNK = 64 * 1024
 CAP_POLL_MS = 40
 """Receive timeout of a paced lane's socket: how soon it takes a new share of the rate."""
 CLOSE_WAIT = 1.0
-"""Seconds a connection closed on a broken rule waits for its ERROR frame to be
-acknowledged (the listener's linger is as long)."""
+"""Seconds a connection about to close waits for its last frames (an ERROR, a receipt)
+to be acknowledged (the receiver's listener lingers as long)."""
 SNDBUF_MIN = 256 * 1024
 SNDBUF_MAX = 12 * 1024 * 1024
 
@@ -151,8 +151,8 @@ def _pending(sock: Any) -> int:
 
 
 def _delivered(sock: Any, timeout: float) -> None:
-    """Wait up to ``timeout`` seconds until the peer acknowledged everything sent: a fixed
-    pause let a loaded machine close the connection before its last ERROR frame left."""
+    """Wait up to ``timeout`` seconds until the peer acknowledged everything sent, before
+    closing: a fixed pause let a loaded machine close before the last frame left."""
     deadline = time.monotonic() + timeout
     while _pending(sock) and time.monotonic() < deadline:
         time.sleep(0.01)
