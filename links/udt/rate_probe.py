@@ -10,7 +10,10 @@ has queued, and its least value is the path's own delay (``base``). Two kinds of
 trip come in: the lanes' connections' own smoothed round trip (:meth:`smoothed`, read
 every look at the lanes: dense, and no lost packet delays it), and the answers to the
 segments' manifests (:meth:`round_trip`, a few a second; a lost packet delays some of
-them, a full queue all of them, so the least of two or more says the queue).
+them, a full queue all of them, so the least of two or more says the queue). UDT
+smooths its round trip at both ends, so it says a draining queue a few tenths of a
+second late; each answer waited behind the queue as it stood, so a step's queue is the
+least of its answers and the smoothed round trip.
 
 * The start: from ``initial_bps``, up by ``startup`` every ``startup_step`` seconds while
   no queue shows, within ``ahead`` times what the receiver acknowledged. It ends at the
@@ -172,7 +175,7 @@ class RateProbe:
         smoothed, self._smoothed = self._smoothed, None
         if self.base is None or (least is None and smoothed is None):
             return self.rate_bps  # no round trip this step: nothing learnt
-        self.queued = (least if smoothed is None else smoothed) - self.base
+        self.queued = min(trip for trip in (least, smoothed) if trip is not None) - self.base
         rate, delivered = self.rate_bps, self.delivered_bps()
         peak = self.peak_bps(now)
         at_budget = bool(self.budget_bps) and delivered >= self.near * (self.budget_bps or 0)
