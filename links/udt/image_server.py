@@ -98,6 +98,8 @@ class _PacedFetch:
         share = self.rate.share(now, self.done + sum(a for _, a in self.lanes.values()),
                                 [sender.round_trip() for sender in sending])
         caps = dict.fromkeys(self.lanes, share)
+        caps.update(zip(sending, self.rate.filled([sender.ceiling() for sender in sending]),
+                        strict=True))
         if sending and count is not None and len(self.asked) >= count:
             # every segment asked for (the fetcher held none before): the last ones
             # finish together, as LaneRun's do

@@ -32,7 +32,7 @@ from typing import Any
 
 from links.udt.lane_plan import Pace, straggler
 from links.udt.protocol import MAX_LANES, Manifest, segment_bounds
-from links.udt.rate_probe import RateProbe, final_shares, lane_share
+from links.udt.rate_probe import RateProbe, filled_shares, final_shares, lane_share
 
 log = logging.getLogger(__name__)
 
@@ -80,13 +80,22 @@ class SharedRate:
             share *= HEADROOM  # the budget's pacer holds the total
         return share
 
+    def filled(self, ceilings: Sequence[float | None]) -> list[float]:
+        """The sending lanes' shares at the rate :meth:`share` last found, what lanes
+        held back by UDT's loss reaction leave going to the others
+        (:func:`~links.udt.rate_probe.filled_shares`); ``ceilings``: what UDT lets each
+        send now."""
+        return self._headroom(filled_shares(self.control.rate_bps, ceilings))
+
     def final(self, remaining: Sequence[int]) -> list[float]:
         """The sending lanes' shares once every segment is handed out, from the bytes
         each has still to deliver (:func:`~links.udt.rate_probe.final_shares`), at the
         rate :meth:`share` last found."""
-        shares = final_shares(self.control.rate_bps, remaining)
+        return self._headroom(final_shares(self.control.rate_bps, remaining))
+
+    def _headroom(self, shares: list[float]) -> list[float]:
         if self.pace is not None and self.control.rate_bps >= self.pace.rate_bps:
-            shares = [share * HEADROOM for share in shares]
+            return [share * HEADROOM for share in shares]  # the budget's pacer holds the total
         return shares
 
 
@@ -230,6 +239,8 @@ class LaneRun:
                     share = shared.share(now, acknowledged,
                                          [senders[lane].round_trip() for lane in busy])
                     caps = dict.fromkeys(running, share)
+                    caps.update(zip(busy, shared.filled(
+                        [senders[lane].ceiling() for lane in busy]), strict=True))
                     if not todo and busy:  # the last segments: finish together
                         caps.update(zip(busy, shared.final(
                             [_length(manifest, started[lane][0], count) - inflight[lane]

@@ -272,6 +272,31 @@ def lane_share(rate_bps: float, sending: int) -> float:
     return rate_bps / max(1, sending)
 
 
+HELD = 0.9
+"""A lane whose connection UDT lets send under this part of an even share is held back
+by UDT's own loss reaction (:func:`filled_shares`)."""
+
+
+def filled_shares(rate_bps: float, ceilings: Sequence[float | None]) -> list[float]:
+    """Each sending lane's cap when some are held back: UDT's congestion control reads
+    every radio loss as congestion and slows a connection below its share (at 2 % loss,
+    two to five of sixteen lanes at a quarter to two thirds of theirs), and an even
+    split left that part of the rate unsent while the radio idled. ``ceilings``: the
+    file bit/s UDT lets each lane send now (None: not known). A lane held back (under
+    ``HELD`` of an even share) keeps an even share to climb back into; what it leaves
+    goes to the others, at most as much again as an even share each (lanes held back
+    that recover together must not pile more than that onto the radio before the next
+    look at the lanes)."""
+    even = lane_share(rate_bps, len(ceilings))
+    held = [c is not None and c < HELD * even for c in ceilings]
+    free = len(ceilings) - sum(held)
+    if not free or free == len(ceilings):
+        return [even] * len(ceilings)
+    spare = sum(even - c for c, h in zip(ceilings, held, strict=True) if h and c is not None)
+    more = even + min(even, spare / free)
+    return [even if h else more for h in held]
+
+
 def final_shares(rate_bps: float, remaining: Sequence[int]) -> list[float]:
     """Each sending lane's cap once no segment is left to hand out: in proportion to the
     bytes it has still to deliver, so that the lanes finish together. With even shares

@@ -297,6 +297,7 @@ class BulkSender:
         self._cap: float | None = None
         self._cap_on: float | None = None  # the cap the live socket has
         self._round_trip: float | None = None
+        self._ceiling: float | None = None
 
     def acknowledged(self) -> tuple[tuple[int, int] | None, int, bool] | None:
         """(segment, bytes of it the receiver acknowledged, whether data of it is still
@@ -316,6 +317,8 @@ class BulkSender:
         pending = _pending(sock)
         stats = udt_stats.read(sock)
         self._round_trip = None if stats is None else stats.round_trip
+        payload = _payload(sock)
+        self._ceiling = payload * 8 / stats.pace if stats and stats.pace and payload else None
         # data still to leave: what UDT holds less what it sent and awaits an ACK for
         unsent = pending if stats is None else pending - stats.in_flight * _payload(sock)
         return manifest.segment, max(0, offset - pending), \
@@ -326,6 +329,13 @@ class BulkSender:
         included, as :meth:`acknowledged` last read it; None between transfers or before
         it settled. Called from another thread."""
         return self._round_trip
+
+    def ceiling(self) -> float | None:
+        """The file bit/s UDT lets the connection under way send now, as
+        :meth:`acknowledged` last read it: under the cap (:meth:`cap`) while UDT's own
+        loss reaction holds the connection back; None when not known. Called from another
+        thread."""
+        return self._ceiling
 
     def cap(self, data_bps: float) -> None:
         """Hold this sender's connection to ``data_bps`` bits of file data per second

@@ -7,7 +7,7 @@ import random
 
 import pytest
 
-from links.udt.rate_probe import RateProbe, final_shares, lane_share
+from links.udt.rate_probe import RateProbe, filled_shares, final_shares, lane_share
 
 BASE = 0.040  # the path's own round trip
 
@@ -283,3 +283,27 @@ def test_the_last_lanes_share_the_rate_by_what_each_has_left_and_finish_together
     ([-5, 10], 9.6e6 / 2 / 4)])        # a count ahead of the segment's length
 def test_no_last_lane_is_starved_by_a_count_that_lags(left, least):
     assert min(final_shares(9.6e6, left)) == pytest.approx(least)
+
+
+@pytest.mark.parametrize(("ceilings", "shares"), [
+    # none held back: even shares
+    ([0.6e6] * 4 + [None] * 12, [0.6e6] * 16),
+    # four held back to a quarter of theirs: they keep an even share to climb back into,
+    # the other twelve take what they leave
+    ([0.15e6] * 4 + [0.6e6] * 12, [0.6e6] * 4 + [0.75e6] * 12),
+    # all held back: nobody to take more
+    ([0.3e6] * 16, [0.6e6] * 16),
+    # fifteen held back to nothing: the last one takes at most as much again
+    ([0.0] * 15 + [0.6e6], [0.6e6] * 15 + [1.2e6]),
+])
+def test_lanes_held_back_by_udt_leave_their_share_to_the_others(ceilings, shares):
+    """At 2 % loss UDT's loss reaction held two to five of sixteen lanes to a quarter
+    to two thirds of their share, and an even split left that part of the rate unsent
+    (the radio idled while the rate probe saw no queue). What the lanes can send
+    together comes to the rate again, unless too many are held back."""
+    got = filled_shares(9.6e6, ceilings)
+    assert got == pytest.approx(shares)
+    held = [c is not None and c < 0.9 * 0.6e6 for c in ceilings]
+    if 0 < sum(held) <= 4:
+        sent = sum(c if h else cap for cap, c, h in zip(got, ceilings, held, strict=True))
+        assert sent == pytest.approx(9.6e6)

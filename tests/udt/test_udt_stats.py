@@ -51,3 +51,42 @@ def test_a_connection_through_a_delaying_radio_reports_its_round_trip_and_flight
         client.close()
     server.close()
     assert udt_stats.read(client) is None  # closed: nothing to read
+
+
+def test_a_capped_connection_reports_the_pace_of_its_cap():
+    """The pace is what tells a lane held back by UDT's loss reaction (slower than its
+    cap) from one its cap holds: with no loss it is the cap's, MSS bytes per packet."""
+    udt4py = pytest.importorskip("udt4py")
+    server = udt4py.UDTSocket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(1)
+    received = []
+    size = 2 << 20
+
+    def sink() -> None:
+        conn, _ = server.accept()
+        buf = bytearray(65536)
+        while sum(received) < size:
+            received.append(conn.recv(buf))
+
+    thread = threading.Thread(target=sink, daemon=True)
+    thread.start()
+    with LossyProxy(server.address, delay=0.010, rate_bps=20e6, lifetime=30) as proxy:
+        client = udt4py.UDTSocket()
+        client.connect(proxy.address)
+        client.UDT_MAXBW = 1_000_000  # bytes/s on the wire: a packet every MSS µs
+        expected = int(client.UDT_MSS) / 1e6
+        client.send(bytes(size))
+        paces = []
+        while sum(received) < size:
+            stats = udt_stats.read(client)
+            if stats is not None and stats.pace is not None:
+                paces.append(stats.pace)
+            time.sleep(0.02)
+        thread.join(10)
+        client.close()
+    server.close()
+    # without loss, the cap's (before UDT's first look at its congestion control, 1 µs:
+    # no lane reads as held back then)
+    assert sorted(paces)[len(paces) // 2] == pytest.approx(expected, rel=0.1)
+    assert max(paces) <= 1.1 * expected
