@@ -9,7 +9,8 @@ a lane finishes a segment), feeds the bytes the receiver acknowledged and the la
 smoothed round trips to the rate probe, gives each lane with data still to leave an
 equal share of the rate (``UDT_MAXBW``; a lane waiting for an answer, for
 acknowledgements of data already sent, or for a receipt leaves its share to the
-others; once every segment is handed out, a share in proportion to what the lane has
+others, and one that UDT's own loss reaction holds below its share leaves what it cannot
+send; once every segment is handed out, a share in proportion to what the lane has
 still to deliver, so that the last lanes finish together), starts lanes one per tick
 (each opens with a window of packets sent before any pacing applies) and, once every
 segment is handed out, takes a stalled one over on an idle lane (the receiver hands the
@@ -51,7 +52,8 @@ SenderFactory = Callable[[Callable[[int, int], None], Callable[[int], float] | N
 class SharedRate:
     """All lanes of one transfer paced together at the rate a :class:`RateProbe` finds:
     each lane with data on its way gets an equal share (a lane waiting for an answer or a
-    receipt leaves its share to the others); a lane that joins is paced from its first
+    receipt leaves its share to the others, one held back by UDT's loss reaction what it
+    cannot send: :meth:`filled`); a lane that joins is paced from its first
     packet. With a budget, its :class:`Pace` holds the total and the shares get
     ``HEADROOM``. Not thread-safe: the caller holds its own lock."""
 
