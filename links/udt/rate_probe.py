@@ -280,7 +280,7 @@ by UDT's own loss reaction (:func:`filled_shares`)."""
 def filled_shares(rate_bps: float, ceilings: Sequence[float | None]) -> list[float]:
     """Each sending lane's cap when some are held back: UDT's congestion control reads
     every radio loss as congestion and slows a connection below its share (at 2 % loss,
-    two to five of sixteen lanes at a quarter to two thirds of theirs), and an even
+    two to five of sixteen lanes at a fifth to four fifths of theirs), and an even
     split left that part of the rate unsent while the radio idled. ``ceilings``: the
     file bit/s UDT lets each lane send now (None: not known). A lane held back (under
     ``HELD`` of an even share) keeps an even share to climb back into; what it leaves

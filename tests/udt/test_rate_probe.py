@@ -297,8 +297,8 @@ def test_no_last_lane_is_starved_by_a_count_that_lags(left, least):
     ([0.0] * 15 + [0.6e6], [0.6e6] * 15 + [1.2e6]),
 ])
 def test_lanes_held_back_by_udt_leave_their_share_to_the_others(ceilings, shares):
-    """At 2 % loss UDT's loss reaction held two to five of sixteen lanes to a quarter
-    to two thirds of their share, and an even split left that part of the rate unsent
+    """At 2 % loss UDT's loss reaction held two to five of sixteen lanes to a fifth to
+    four fifths of their share, and an even split left that part of the rate unsent
     (the radio idled while the rate probe saw no queue). What the lanes can send
     together comes to the rate again, unless too many are held back."""
     got = filled_shares(9.6e6, ceilings)
