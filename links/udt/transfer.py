@@ -320,7 +320,7 @@ class BulkSender:
         payload = _payload(sock)
         self._ceiling = payload * 8 / stats.pace if stats and stats.pace and payload else None
         # data still to leave: what UDT holds less what it sent and awaits an ACK for
-        unsent = pending if stats is None else pending - stats.in_flight * _payload(sock)
+        unsent = pending if stats is None else pending - stats.in_flight * payload
         return manifest.segment, max(0, offset - pending), \
             state is State.SENDING or unsent > 0
 
