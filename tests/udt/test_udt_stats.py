@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import threading
 import time
+from typing import Any
 
 import pytest
 
@@ -18,21 +19,29 @@ from links.udt import udt_stats
 pytestmark = pytest.mark.udt
 
 
-def test_a_connection_through_a_delaying_radio_reports_its_round_trip_and_flight():
+def _sink(size: int) -> tuple[Any, list[int], threading.Thread]:
+    """A UDT server that takes one connection and reads ``size`` bytes from it: (the
+    listening socket, the byte counts read so far, its thread)."""
     udt4py = pytest.importorskip("udt4py")
     server = udt4py.UDTSocket()
     server.bind(("127.0.0.1", 0))
     server.listen(1)
-    received = []
+    received: list[int] = []
 
     def sink() -> None:
         conn, _ = server.accept()
         buf = bytearray(65536)
-        while sum(received) < 4 << 20:
+        while sum(received) < size:
             received.append(conn.recv(buf))
 
     thread = threading.Thread(target=sink, daemon=True)
     thread.start()
+    return server, received, thread
+
+
+def test_a_connection_through_a_delaying_radio_reports_its_round_trip_and_flight():
+    udt4py = pytest.importorskip("udt4py")
+    server, received, thread = _sink(4 << 20)
     with LossyProxy(server.address, delay=0.020, rate_bps=20e6, lifetime=30) as proxy:
         client = udt4py.UDTSocket()
         client.connect(proxy.address)
@@ -57,20 +66,8 @@ def test_a_capped_connection_reports_the_pace_of_its_cap():
     """The pace is what tells a lane held back by UDT's loss reaction (slower than its
     cap) from one its cap holds: with no loss it is the cap's, MSS bytes per packet."""
     udt4py = pytest.importorskip("udt4py")
-    server = udt4py.UDTSocket()
-    server.bind(("127.0.0.1", 0))
-    server.listen(1)
-    received = []
     size = 2 << 20
-
-    def sink() -> None:
-        conn, _ = server.accept()
-        buf = bytearray(65536)
-        while sum(received) < size:
-            received.append(conn.recv(buf))
-
-    thread = threading.Thread(target=sink, daemon=True)
-    thread.start()
+    server, received, thread = _sink(size)
     with LossyProxy(server.address, delay=0.010, rate_bps=20e6, lifetime=30) as proxy:
         client = udt4py.UDTSocket()
         client.connect(proxy.address)
