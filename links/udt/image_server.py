@@ -95,16 +95,13 @@ class _PacedFetch:
                 count = segment[1]
                 if ack[2]:
                     sending.append(sender)
-        share = self.rate.share(now, self.done + sum(a for _, a in self.lanes.values()),
-                                [sender.round_trip() for sender in sending])
-        caps = dict.fromkeys(self.lanes, share)
-        caps.update(zip(sending, self.rate.filled([sender.ceiling() for sender in sending]),
-                        strict=True))
+        left = None
         if sending and count is not None and len(self.asked) >= count:
             # every segment asked for (the fetcher held none before): the last ones
             # finish together, as LaneRun's do
             left = [self.lengths.get(sender, 0) - self.lanes[sender][1] for sender in sending]
-            caps.update(zip(sending, self.rate.final(left), strict=True))
+        caps = self.rate.caps(now, self.done + sum(a for _, a in self.lanes.values()),
+                              self.lanes, {sender: sender for sender in sending}, left)
         for sender, cap in caps.items():
             sender.cap(cap)
 

@@ -26,16 +26,18 @@ import logging
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from links.udt.lane_plan import Pace, straggler
 from links.udt.protocol import MAX_LANES, Manifest, segment_bounds
 from links.udt.rate_probe import RateProbe, filled_shares, final_shares, lane_share
 
 log = logging.getLogger(__name__)
+
+K = TypeVar("K")
 
 TICK = 0.05
 """Seconds between the coordinator's looks at the lanes."""
@@ -53,7 +55,7 @@ class SharedRate:
     """All lanes of one transfer paced together at the rate a :class:`RateProbe` finds:
     each lane with data on its way gets an equal share (a lane waiting for an answer or a
     receipt leaves its share to the others, one held back by UDT's loss reaction what it
-    cannot send: :meth:`filled`); a lane that joins is paced from its first
+    cannot send: :meth:`caps`); a lane that joins is paced from its first
     packet. With a budget, its :class:`Pace` holds the total and the shares get
     ``HEADROOM``. Not thread-safe: the caller holds its own lock."""
 
@@ -69,36 +71,29 @@ class SharedRate:
         """The share of a lane starting now, ``lanes`` lanes running with it."""
         return lane_share(self.control.rate_bps, lanes)
 
-    def share(self, now: float, acknowledged: int, sending: Sequence[float | None]) -> float:
+    def caps(self, now: float, acknowledged: int, lanes: Iterable[K], sending: Mapping[K, Any],
+             left: Sequence[int] | None = None) -> dict[K, float]:
         """Feed the bytes acknowledged so far and the smoothed round trips of the lanes
-        with data on its way (None: not read yet); return each such lane's share (bit/s).
-        The lanes share the radio's queue: the least of their round trips says it."""
-        trips = [trip for trip in sending if trip]
+        with data on its way (``sending``: lane -> its
+        :class:`~links.udt.transfer.BulkSender`); return each of ``lanes``' cap (bit/s).
+        The lanes share the radio's queue: the least of their round trips says it. A lane
+        not sending gets an even share of the rate; a sending one its share with what
+        lanes held back by UDT's loss reaction leave
+        (:func:`~links.udt.rate_probe.filled_shares`), or, once every segment is handed
+        out, a share by the bytes it has still to deliver (``left``, in ``sending``'s
+        order: :func:`~links.udt.rate_probe.final_shares`)."""
+        senders = list(sending.values())
+        trips = [trip for sender in senders if (trip := sender.round_trip())]
         if trips:
             self.control.smoothed(min(trips))
         rate = self.control.sample(now, acknowledged)
-        share = lane_share(rate, len(sending))
-        if self.pace is not None and rate >= self.pace.rate_bps:
-            share *= HEADROOM  # the budget's pacer holds the total
-        return share
-
-    def filled(self, ceilings: Sequence[float | None]) -> list[float]:
-        """The sending lanes' shares at the rate :meth:`share` last found, what lanes
-        held back by UDT's loss reaction leave going to the others
-        (:func:`~links.udt.rate_probe.filled_shares`); ``ceilings``: what UDT lets each
-        send now."""
-        return self._headroom(filled_shares(self.control.rate_bps, ceilings))
-
-    def final(self, remaining: Sequence[int]) -> list[float]:
-        """The sending lanes' shares once every segment is handed out, from the bytes
-        each has still to deliver (:func:`~links.udt.rate_probe.final_shares`), at the
-        rate :meth:`share` last found."""
-        return self._headroom(final_shares(self.control.rate_bps, remaining))
-
-    def _headroom(self, shares: list[float]) -> list[float]:
-        if self.pace is not None and self.control.rate_bps >= self.pace.rate_bps:
-            return [share * HEADROOM for share in shares]  # the budget's pacer holds the total
-        return shares
+        # with a budget, its pacer holds the total
+        headroom = HEADROOM if self.pace is not None and rate >= self.pace.rate_bps else 1.0
+        caps = dict.fromkeys(lanes, lane_share(rate, len(senders)) * headroom)
+        shares = filled_shares(rate, [sender.ceiling() for sender in senders]) \
+            if left is None else final_shares(rate, left)
+        caps.update(zip(sending, (share * headroom for share in shares), strict=True))
+        return caps
 
 
 def _length(manifest: Manifest, index: int, count: int) -> int:
@@ -238,15 +233,11 @@ class LaneRun:
                     for stop in running.values():
                         stop.set()
                 if shared is not None:
-                    share = shared.share(now, acknowledged,
-                                         [senders[lane].round_trip() for lane in busy])
-                    caps = dict.fromkeys(running, share)
-                    caps.update(zip(busy, shared.filled(
-                        [senders[lane].ceiling() for lane in busy]), strict=True))
-                    if not todo and busy:  # the last segments: finish together
-                        caps.update(zip(busy, shared.final(
-                            [_length(manifest, started[lane][0], count) - inflight[lane]
-                             for lane in busy]), strict=True))
+                    left = None if todo else [  # the last segments: finish together
+                        _length(manifest, started[lane][0], count) - inflight[lane]
+                        for lane in busy]
+                    caps = shared.caps(now, acknowledged, running,
+                                       {lane: senders[lane] for lane in busy}, left)
                     for lane, cap in caps.items():
                         if shares.get(lane) != cap:
                             shares[lane] = cap
