@@ -47,7 +47,7 @@ from links.udt.transfer import (
     TransferResult,
     UdtService,
     _close,
-    _send_all,
+    _flush,
     listen,
     udt4py,
 )
@@ -245,9 +245,7 @@ class ImageServer(UdtService):
                         events += sender.unhandled()  # the next FETCH behind the receipt
                     elif isinstance(event, PeerErrored | ProtocolErrorDetected):
                         log.info("fetcher %s: %s", peer, event.reason)
-                out = conn.data_to_send()
-                if out:
-                    _send_all(sock, out)
+                _flush(sock, conn)
                 if conn.state is not State.IDLE:
                     return
         except ConnectionLost as exc:

@@ -31,6 +31,20 @@ all lanes of that fetch together); the server answers with the MANIFEST of that 
 the sender above, or with REFUSE (NOT_FOUND) when it has no such file. One connection may
 carry any number of fetches, one after the other.
 
+Trailers. UDT learns that a packet was lost when a later one arrives; the last packet
+before a pause (a segment's last data, a manifest, an answer, a receipt) has none behind
+it, and a loss of it waits for UDT's retransmission timer (at least 300 ms in libudt).
+So a sender offers ``"trailers": true`` beside its first manifest's fields on a
+connection; a receiver that knows them takes the manifest and closes the deal with its
+ACCEPT or CHALLENGE. From then on either end may follow a frame after which it waits for
+the other (the last DATA of a transfer, MANIFEST, AUTH, ACCEPT, CHALLENGE, REFUSE,
+RECEIPT, FETCH) with an empty TRAILER in a packet of its own, which the other end skips:
+a lost packet before it is seen and sent again within a round trip. (The I/O sends them
+once UDT has lost a packet on the connection: :meth:`_Base.trailer` says when one is
+due.) A receiver from before trailers refuses the
+offer as an unknown field (BAD_MANIFEST); the sender then sends the manifest again
+without it, and no TRAILER crosses that connection.
+
 Either side may send ERROR before closing when the other broke a rule (garbage, a frame
 out of place, data past the size).
 
@@ -107,6 +121,7 @@ class FrameType(IntEnum):
     CHALLENGE = 7
     AUTH = 8
     FETCH = 9
+    TRAILER = 10
 
 
 MAX_PAYLOAD: dict[FrameType, int] = {
@@ -119,6 +134,7 @@ MAX_PAYLOAD: dict[FrameType, int] = {
     FrameType.CHALLENGE: 32,
     FrameType.AUTH: 32,
     FrameType.FETCH: 4 * 1024,
+    FrameType.TRAILER: 0,
 }
 MIN_PAYLOAD: dict[FrameType, int] = {
     FrameType.MANIFEST: 2,
@@ -130,7 +146,10 @@ MIN_PAYLOAD: dict[FrameType, int] = {
     FrameType.CHALLENGE: 32,
     FrameType.AUTH: 32,
     FrameType.FETCH: 2,
+    FrameType.TRAILER: 0,
 }
+TRAILERS = "trailers"
+"""The manifest's key offering trailers (see the module doc); not part of the manifest."""
 #: domain separation of the authentication tag
 AUTH_LABEL = b"edge-vis bulk manifest auth v1\x00"
 #: shortest pre-shared key accepted (bytes)
@@ -322,6 +341,21 @@ class Manifest:
         atr = _atr(data.get("atr"))
         segment = _segment(data.get("segment"))
         return cls(tid, vid, name, size, digest, fmt, ctime, atr, segment)
+
+
+def _offered_manifest(payload: bytes, knows_trailers: bool) -> tuple[Manifest, bool]:
+    """A MANIFEST payload's manifest, and whether it offers trailers (an end that knows
+    no trailers reads the offer as an unknown field, as one from before them did)."""
+    if not knows_trailers or TRAILERS.encode() not in payload:
+        return Manifest.from_json(payload), False
+    try:
+        data = json.loads(payload.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError):
+        return Manifest.from_json(payload), False  # says what is wrong with it
+    if not isinstance(data, dict) or data.get(TRAILERS) is not True:
+        return Manifest.from_json(payload), False
+    del data[TRAILERS]
+    return Manifest.from_mapping(data), True
 
 
 def _number(value: object, path: str, lo: float = -math.inf, hi: float = math.inf) -> float:
@@ -636,15 +670,30 @@ class State(Enum):
 class _Base:
     idle_timeout: float = 30.0
     state: State = State.IDLE
+    #: False: know no trailers, as a peer from before them (see the module doc)
+    knows_trailers: bool = True
+    #: both ends agreed on trailers on this connection
+    trailers: bool = False
     _reader: _FrameReader = field(default_factory=_FrameReader)
     _out: list[bytes] = field(default_factory=list)
     _last_activity: float | None = None
+    _trailer_due: bool = False
 
     def data_to_send(self) -> bytes:
         """Bytes queued for the peer since the last call."""
         out = b"".join(self._out)
         self._out.clear()
         return out
+
+    def trailer(self) -> bytes:
+        """The TRAILER due after :meth:`data_to_send`'s bytes, or nothing: the caller
+        sends it on its own (a packet of its own), right after them."""
+        due, self._trailer_due = self._trailer_due, False
+        return encode_frame(FrameType.TRAILER, b"") if due else b""
+
+    def _turn(self) -> None:
+        """This end now waits for the other: a trailer follows what it queued."""
+        self._trailer_due = self.trailers
 
     def next_deadline(self) -> float | None:
         """When :meth:`handle_timer` must be called, or None when nothing is pending."""
@@ -679,6 +728,8 @@ class _Base:
                     self.state = State.CLOSED
                     events.append(PeerErrored(Reason.of(code), _text(payload[2:])))
                     return events
+                if ftype is FrameType.TRAILER and self.trailers:
+                    continue
                 events.extend(self._frame(ftype, payload))
                 if self.state is State.CLOSED:
                     return events
@@ -695,6 +746,7 @@ class _Base:
 
     def _fail(self, code: Reason, reason: str) -> ProtocolErrorDetected:
         self.state = State.CLOSED
+        self._trailer_due = False
         self._out.append(encode_frame(FrameType.ERROR, _coded(code, reason)))
         return ProtocolErrorDetected(code, reason)
 
@@ -727,6 +779,7 @@ class ReceiverConnection(_Base):
     _challenge: bytes = b""
     _manifest_bytes: bytes = b""
     _fetching: bool = False
+    _offered: bool = False
 
     def request(self, name: str, segment: tuple[int, int] | None = None,
                 rate_bps: int | None = None) -> None:
@@ -735,6 +788,7 @@ class ReceiverConnection(_Base):
             raise BulkProtocolError(f"request() in state {self.state.value}")
         self._out.append(encode_frame(FrameType.FETCH, fetch_payload(name, segment, rate_bps)))
         self._fetching = True
+        self._turn()
 
     def _frame(self, ftype: FrameType, payload: bytes) -> list[Event]:
         if ftype is FrameType.REFUSE and self.state is State.AWAIT_MANIFEST and self._fetching:
@@ -744,9 +798,10 @@ class ReceiverConnection(_Base):
         if ftype is FrameType.MANIFEST and self.state is State.AWAIT_MANIFEST:
             self._fetching = False
             try:
-                manifest = Manifest.from_json(payload)
+                manifest, self._offered = _offered_manifest(payload, self.knows_trailers)
             except ManifestError as exc:
                 self._out.append(encode_frame(FrameType.REFUSE, _coded(exc.code, exc.reason)))
+                self._turn()
                 return [ManifestRejected(exc.code, exc.reason)]
             if self.keys is not None:
                 if manifest.vehicle_id not in self.keys:
@@ -757,6 +812,8 @@ class ReceiverConnection(_Base):
                 self._challenge = self.nonce()
                 self._out.append(encode_frame(FrameType.CHALLENGE, self._challenge))
                 self.state = State.AWAIT_AUTH
+                self.trailers = self.trailers or self._offered
+                self._turn()
                 return []
             self.manifest = manifest
             self.state = State.DECIDING
@@ -793,6 +850,7 @@ class ReceiverConnection(_Base):
         self._out.append(encode_frame(FrameType.REFUSE, _coded(Reason.UNAUTHENTICATED, reason)))
         self.manifest = None
         self.state = State.AWAIT_MANIFEST
+        self._turn()
         return ManifestRejected(Reason.UNAUTHENTICATED, reason)
 
     def accept(self, offset: int) -> list[Event]:
@@ -802,6 +860,8 @@ class ReceiverConnection(_Base):
         if not 0 <= offset <= self.manifest.length:
             raise BulkProtocolError(f"offset {offset} outside 0..{self.manifest.length}")
         self._out.append(encode_frame(FrameType.ACCEPT, struct.pack(">Q", offset)))
+        self.trailers = self.trailers or self._offered
+        self._turn()
         self.offset = offset
         if offset == self.manifest.length:
             self.state = State.VERIFYING
@@ -816,6 +876,7 @@ class ReceiverConnection(_Base):
         self._out.append(encode_frame(FrameType.REFUSE, _coded(code, reason)))
         self.manifest = None
         self.state = State.AWAIT_MANIFEST
+        self._turn()
 
     def send_receipt(self, ok: bool, sha256: str, reason: str = "") -> None:
         """Report the verdict on the complete file and wait for the next manifest."""
@@ -824,6 +885,7 @@ class ReceiverConnection(_Base):
         digest = bytes.fromhex(sha256) if sha256 else bytes(32)
         payload = bytes([0 if ok else 1]) + digest + reason.encode("utf-8")[:1024]
         self._out.append(encode_frame(FrameType.RECEIPT, payload))
+        self._turn()
         self.manifest = None
         self.offset = 0
         self.state = State.AWAIT_MANIFEST
@@ -839,19 +901,34 @@ class SenderConnection(_Base):
     manifest: Manifest | None = None
     offset: int = 0
     keys: Mapping[str, bytes] | None = None
+    #: the manifest went a second time, without the trailers' offer (a receiver from
+    #: before them): its answer took two round trips
+    resent: bool = False
     _manifest_bytes: bytes = b""
     _answered: bool = False
+    _offered: bool = False
 
     def send_manifest(self, manifest: Manifest, now: float) -> None:
         """Announce a transfer; the answer arrives as ``Accepted`` or ``Refused``."""
         if self.state is not State.IDLE:
             raise BulkProtocolError(f"send_manifest() in state {self.state.value}")
-        self._manifest_bytes = manifest.to_json()
-        self._out.append(encode_frame(FrameType.MANIFEST, self._manifest_bytes))
         self.manifest = manifest
+        self._offered = self.knows_trailers and not self.trailers  # once a connection
+        self.resent = False
+        self._announce()
         self._answered = False
         self.state = State.AWAIT_ANSWER
         self._last_activity = now
+
+    def _announce(self) -> None:
+        assert self.manifest is not None
+        data = self.manifest.to_json()
+        if self._offered:
+            data = json.dumps({**json.loads(data), TRAILERS: True},
+                              separators=(",", ":")).encode("utf-8")
+        self._manifest_bytes = data
+        self._out.append(encode_frame(FrameType.MANIFEST, data))
+        self._turn()
 
     def send_data(self, data: bytes, now: float) -> None:
         """Queue the next bytes of the file (at most ``DATA_CHUNK`` per call).
@@ -868,6 +945,7 @@ class SenderConnection(_Base):
         self.offset += len(data)
         if self.offset == self.manifest.length:
             self.state = State.AWAIT_RECEIPT
+            self._turn()
 
     @property
     def remaining(self) -> int:
@@ -878,6 +956,7 @@ class SenderConnection(_Base):
         if self.state is not State.IDLE:
             raise BulkProtocolError(f"refuse_fetch() in state {self.state.value}")
         self._out.append(encode_frame(FrameType.REFUSE, _coded(code, reason)))
+        self._turn()
 
     def _frame(self, ftype: FrameType, payload: bytes) -> list[Event]:
         assert ftype is not FrameType.ERROR
@@ -894,11 +973,14 @@ class SenderConnection(_Base):
                                f"for vehicle {self.manifest.vehicle_id!r}",
                                Reason.UNAUTHENTICATED)
             self._answered = True
+            self.trailers = self.trailers or self._offered
             self._out.append(encode_frame(FrameType.AUTH,
                                           auth_tag(key, payload, self._manifest_bytes)))
+            self._turn()
             return []
         if ftype is FrameType.ACCEPT and self.state is State.AWAIT_ANSWER:
             (offset,) = struct.unpack(">Q", payload)
+            self.trailers = self.trailers or self._offered
             if offset > self.manifest.length:
                 raise _Garbage(
                     f"receiver offset {offset} beyond the data size {self.manifest.length}",
@@ -909,6 +991,12 @@ class SenderConnection(_Base):
             return [Accepted(tid, offset)]
         if ftype is FrameType.REFUSE and self.state is State.AWAIT_ANSWER:
             (code,) = struct.unpack_from(">H", payload)
+            if code == Reason.BAD_MANIFEST and self._offered and not self.trailers:
+                # a receiver from before trailers: the same manifest without the offer
+                self.knows_trailers = self._offered = False
+                self.resent = True
+                self._announce()
+                return []
             self.manifest = None
             self.state = State.IDLE
             return [Refused(tid, Reason.of(code), _text(payload[2:]))]

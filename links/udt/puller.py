@@ -22,7 +22,7 @@ from typing import Any
 from links.udt.fetch_queue import FetchQueue, Verdict, Wanted
 from links.udt.lane_plan import segments_for
 from links.udt.lane_run import LaneRun
-from links.udt.protocol import MAX_LANES, Manifest
+from links.udt.protocol import MAX_LANES, Manifest, ReceiverConnection
 from links.udt.transfer import (
     CLOSE_WAIT,
     BulkReceiver,
@@ -178,6 +178,7 @@ class _Lane:
         self.rate = rate
         self.on_round_trip: Callable[[float], None] | None = None
         self._sock: Any = None
+        self._conn: ReceiverConnection | None = None  # the connection's protocol state
 
     def send_file(self, _path: object, manifest: Manifest) -> FetchOutcome:
         w = self.wanted
@@ -190,7 +191,10 @@ class _Lane:
                 self._sock = _connect(self.wanted.source, self.puller.connect_timeout, None)
             except ConnectionLost as exc:
                 return FetchOutcome("lost", str(exc))
-        outcome = self.puller.receiver.fetch(self._sock, f"{host}:{port}", request)
+            receiver = self.puller.receiver
+            self._conn = ReceiverConnection(idle_timeout=receiver.idle_timeout,
+                                            keys=receiver.keys)
+        outcome = self.puller.receiver.fetch(self._sock, f"{host}:{port}", request, self._conn)
         if outcome.state == "lost":
             self.close()
         return outcome

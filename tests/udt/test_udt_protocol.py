@@ -338,3 +338,152 @@ def test_bad_segment_is_refused(segment):
     raw["segment"] = segment
     with pytest.raises(ManifestError, match=r"manifest\.segment"):
         Manifest.from_mapping(raw)
+
+
+
+# --------------------------------------------------------------------------- trailers
+
+
+def sends(conn: SenderConnection | ReceiverConnection) -> list[list[FrameType]]:
+    """The frame types of what ``conn`` sends now, one list per send: what it queued,
+    then its trailer on its own."""
+    out = []
+    for data in (conn.data_to_send(), conn.trailer()):
+        types, at = [], 0
+        while at < len(data):
+            _magic, _version, ftype, length = HEADER.unpack_from(data, at)
+            types.append(FrameType(ftype))
+            at += HEADER.size + length
+        if types:
+            out.append(types)
+    return out
+
+
+def deliver(a: SenderConnection | ReceiverConnection,
+            b: SenderConnection | ReceiverConnection) -> list[object]:
+    """Move what a sends, trailer included, into b; return b's events."""
+    return b.receive_data(a.data_to_send() + a.trailer(), 0.0)
+
+
+def offered(data: bytes) -> dict[str, object]:
+    """The JSON of the MANIFEST frame ``data`` starts with."""
+    _magic, _version, ftype, length = HEADER.unpack_from(data)
+    assert ftype == FrameType.MANIFEST
+    return dict(json.loads(data[HEADER.size:HEADER.size + length]))
+
+
+def refuse(code: Reason, text: str) -> bytes:
+    return encode_frame(FrameType.REFUSE, struct.pack(">H", code) + text.encode())
+
+
+TRAILER = encode_frame(FrameType.TRAILER, b"")
+RECEIPT_OK = encode_frame(FrameType.RECEIPT, bytes(1) + bytes(32))
+
+
+def test_the_first_manifest_offers_trailers_beside_its_fields_and_no_trailer_follows_it():
+    sender = SenderConnection()
+    sender.send_manifest(make_manifest(), 0.0)
+    data = sender.data_to_send()
+    assert offered(data)["trailers"] is True
+    assert sender.trailer() == b""  # an end from before trailers would choke on one
+    receiver = ReceiverConnection()
+    assert receiver.receive_data(data, 0.0) == [ManifestReceived(make_manifest())]
+
+
+def test_ends_that_agreed_follow_each_turn_with_a_trailer_sent_on_its_own():
+    sender, receiver = SenderConnection(), ReceiverConnection()
+    m = make_manifest()
+    sender.send_manifest(m, 0.0)
+    deliver(sender, receiver)
+    receiver.accept(0)
+    assert sends(receiver) == [[FrameType.ACCEPT], [FrameType.TRAILER]]
+    assert sender.receive_data(encode_frame(FrameType.ACCEPT, bytes(8)) + TRAILER, 0.0) == [
+        Accepted(m.transfer_id, 0)]
+    assert sender.trailers and receiver.trailers
+    sender.send_data(CONTENT[:4000], 0.0)
+    first = sender.data_to_send()
+    assert sender.trailer() == b""  # more follows at once: no trailer
+    receiver.receive_data(first, 0.0)
+    sender.send_data(CONTENT[4000:], 0.0)
+    data, trailer = sender.data_to_send(), sender.trailer()
+    assert trailer == TRAILER
+    events = receiver.receive_data(data + trailer, 0.0)  # skipped, after the data
+    assert events[-1] == DataComplete(m) and receiver.state is State.VERIFYING
+    receiver.send_receipt(True, m.sha256)
+    assert sends(receiver) == [[FrameType.RECEIPT], [FrameType.TRAILER]]
+    assert isinstance(sender.receive_data(RECEIPT_OK + TRAILER, 0.0)[0], ReceiptReceived)
+    sender.send_manifest(make_manifest(name="sonar_0002.png"), 0.0)
+    assert sends(sender) == [[FrameType.MANIFEST], [FrameType.TRAILER]]
+    assert receiver.receive_data(TRAILER, 0.0) == []  # between transfers too
+
+
+def test_a_receiver_from_before_trailers_gets_the_manifest_again_without_the_offer():
+    """That receiver refuses any field it does not know (hand-written frames here)."""
+    sender, m = SenderConnection(), make_manifest()
+    sender.send_manifest(m, 0.0)
+    assert "trailers" in offered(sender.data_to_send())
+    assert sender.receive_data(refuse(Reason.BAD_MANIFEST,
+                                      "manifest has unknown field(s) trailers"), 0.0) == []
+    again = sender.data_to_send()
+    assert again == encode_frame(FrameType.MANIFEST, m.to_json()) and sender.resent
+    assert sender.trailer() == b""
+    assert sender.receive_data(encode_frame(FrameType.ACCEPT, bytes(8)), 0.0) == [
+        Accepted(m.transfer_id, 0)]
+    sender.send_data(CONTENT, 0.0)
+    assert sends(sender) == [[FrameType.DATA]]  # never a trailer to that receiver
+    sender.receive_data(RECEIPT_OK, 0.0)
+    m2 = make_manifest(name="sonar_0002.png")
+    sender.send_manifest(m2, 0.0)  # no offer again on that connection
+    assert sender.data_to_send() == encode_frame(FrameType.MANIFEST, m2.to_json())
+    assert sender.trailer() == b"" and not sender.resent
+    # a manifest refused as bad without the offer is refused: no second try
+    assert sender.receive_data(refuse(Reason.BAD_MANIFEST, "no"), 0.0) == [
+        Refused(m2.transfer_id, Reason.BAD_MANIFEST, "no")]
+
+
+def test_a_sender_from_before_trailers_never_gets_one_and_may_not_send_one():
+    receiver, m = ReceiverConnection(), make_manifest()
+    assert receiver.receive_data(encode_frame(FrameType.MANIFEST, m.to_json()), 0.0) == [
+        ManifestReceived(m)]
+    receiver.accept(0)
+    assert sends(receiver) == [[FrameType.ACCEPT]]
+    receiver.receive_data(encode_frame(FrameType.DATA, CONTENT), 0.0)
+    receiver.send_receipt(True, m.sha256)
+    assert sends(receiver) == [[FrameType.RECEIPT]]
+    (event,) = receiver.receive_data(TRAILER, 0.0)  # nothing agreed: as strict as before
+    assert isinstance(event, ProtocolErrorDetected)
+    assert event.code is Reason.UNEXPECTED_FRAME
+
+
+def test_a_challenge_agrees_on_trailers_and_the_answer_is_followed_by_one():
+    keys = {"uuv1": b"k" * 32}
+    sender = SenderConnection(keys=keys)
+    receiver = ReceiverConnection(keys=keys, nonce=lambda: b"n" * 32)
+    m = make_manifest()
+    sender.send_manifest(m, 0.0)
+    assert deliver(sender, receiver) == []
+    assert sends(receiver) == [[FrameType.CHALLENGE], [FrameType.TRAILER]]
+    sender.receive_data(encode_frame(FrameType.CHALLENGE, b"n" * 32) + TRAILER, 0.0)
+    auth = sender.data_to_send()
+    assert sender.trailer() == TRAILER
+    assert receiver.receive_data(auth + TRAILER, 0.0) == [ManifestReceived(m)]
+
+
+def test_a_fetcher_and_an_image_server_agree_on_the_first_fetch_of_a_connection():
+    fetcher, server, m = ReceiverConnection(), SenderConnection(), make_manifest()
+    fetcher.request(m.name)
+    assert sends(fetcher) == [[FrameType.FETCH]]
+    server.receive_data(encode_frame(FrameType.FETCH, json.dumps({"name": m.name}).encode()),
+                        0.0)
+    server.send_manifest(m, 0.0)
+    assert deliver(server, fetcher) == [ManifestReceived(m)]
+    fetcher.accept(0)
+    deliver(fetcher, server)
+    server.send_data(CONTENT, 0.0)
+    deliver(server, fetcher)
+    fetcher.send_receipt(True, m.sha256)
+    deliver(fetcher, server)  # the trailer behind the receipt finds the server idle
+    fetcher.request("sonar_0002.png")
+    assert sends(fetcher) == [[FrameType.FETCH], [FrameType.TRAILER]]
+    server.refuse_fetch(Reason.NOT_FOUND, "no such file")
+    assert sends(server) == [[FrameType.REFUSE], [FrameType.TRAILER]]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import signal
@@ -10,7 +11,10 @@ import subprocess
 import sys
 import threading
 import time
+from collections import Counter
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -22,6 +26,8 @@ from udt_helpers import RawClient, free_udp_port, sha, wait_for
 from links.udt import UdtBulkChannel
 from links.udt.protocol import (
     HEADER,
+    MAGIC,
+    VERSION,
     FrameType,
     Manifest,
     Reason,
@@ -191,6 +197,71 @@ def test_rate_budget_is_respected(tmp_path: Path, make_file):
     assert result.ok
     # 12 Mbit at 8 Mbit/s cannot take less than 1.5 s; allow for UDT's startup burst.
     assert elapsed > 0.7 * len(content) * 8 / 8_000_000
+
+
+class _LosesChosen(LossyProxy):
+    """The emulated radio losing the first copy of chosen datagrams, one after another
+    (which packet is lost matters here, not how many), and counting UDT's NAKs each way
+    after the last of them: a test's own proxy."""
+
+    def __init__(self, upstream: tuple[str, int], picks: list[Callable[[str, bytes], bool]],
+                 **options: Any) -> None:
+        super().__init__(upstream, **options)
+        self.picks = picks  # (direction, datagram) -> lose it?
+        self.naks: Counter[str] = Counter()
+
+    def _admit(self, direction: Any, data: bytes, now: float) -> float | None:
+        if not self.picks and data[0] & 0x80 and int.from_bytes(data[:2], "big") & 0x7FFF == 3:
+            self.naks[direction.name] += 1  # UDT's NAK
+        if self.picks and self.picks[0](direction.name, data):
+            self.picks.pop(0)
+            return None
+        return super()._admit(direction, data, now)
+
+
+UDT_HEADER = 16
+"""Bytes of UDT's header on every packet; a data packet's first bit is 0."""
+
+
+def _data(direction: str, data: bytes, size: int) -> bool:
+    return direction == "up" and not data[0] & 0x80 and len(data) - UDT_HEADER == size
+
+
+def _tenth_data_packet() -> Callable[[str, bytes], bool]:
+    seen = itertools.count(1)
+    return lambda direction, data: _data(direction, data, 1456) and next(seen) == 10
+
+
+def _last_data(direction: str, data: bytes) -> bool:
+    # 100,000 bytes go as one DATA frame of 100,008 bytes: 68 packets of 1,456 and 1,000
+    return _data(direction, data, 1000)
+
+
+def _receipt(direction: str, data: bytes) -> bool:
+    return direction == "down" and not data[0] & 0x80 and data[UDT_HEADER:UDT_HEADER + 4] == (
+        HEADER.pack(MAGIC, VERSION, FrameType.RECEIPT, 0)[:4])
+
+
+@pytest.mark.parametrize(("pick", "reporter"), [(_last_data, "down"), (_receipt, "up")],
+                         ids=["last data packet", "receipt"])
+def test_a_lost_last_packet_is_reported_at_once_not_waited_for(
+        tmp_path: Path, make_file, pick: Callable[[str, bytes], bool], reporter: str):
+    """The last packet before a pause has nothing behind it that shows it missing: UDT
+    would wait for its retransmission timer (at least 300 ms, each time, on every lossy
+    segment and receipt). On a connection that has lost packets, the trailer behind it
+    makes the other end report the loss (a NAK) as soon as the trailer arrives."""
+    first, _ = make_file(200_000, name="first.png")  # its 10th packet lost: a lossy link
+    second, content = make_file(100_000, name="second.png")
+    with UdtBulkChannel.ImageService(tmp_path / "ops") as ops, _LosesChosen(
+            ops.address, [_tenth_data_packet(), pick], delay=0.02, lifetime=40) as proxy, \
+            UdtBulkChannel.BulkSender(proxy.address, lanes=1, give_up_after=30) as sender:
+        for path in (first, second):  # one connection, as a batch
+            result = sender.send_file(path, UdtBulkChannel.manifest_for_file(
+                path, vehicle_id="uuv1"))
+            assert result.ok, result.reason
+    assert not proxy.picks, "the chosen packets never crossed the radio"
+    assert proxy.naks[reporter] >= 1, "the loss waited for UDT's retransmission timer"
+    assert (tmp_path / "ops" / "uuv1" / "second.png").read_bytes() == content
 
 
 def test_transfer_through_a_lossy_delaying_rate_limited_link(tmp_path: Path, make_file):
