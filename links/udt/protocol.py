@@ -36,14 +36,12 @@ before a pause (a segment's last data, a manifest, an answer, a receipt) has non
 it, and a loss of it waits for UDT's retransmission timer (at least 300 ms in libudt).
 So a sender offers ``"trailers": true`` beside its first manifest's fields on a
 connection; a receiver that knows them takes the manifest and closes the deal with its
-ACCEPT or CHALLENGE. From then on either end may follow a frame after which it waits for
+ACCEPT or CHALLENGE. From then on each end follows every frame after which it waits for
 the other (the last DATA of a transfer, MANIFEST, AUTH, ACCEPT, CHALLENGE, REFUSE,
 RECEIPT, FETCH) with an empty TRAILER in a packet of its own, which the other end skips:
-a lost packet before it is seen and sent again within a round trip. (The I/O sends them
-once UDT has lost a packet on the connection: :meth:`_Base.trailer` says when one is
-due.) A receiver from before trailers refuses the
-offer as an unknown field (BAD_MANIFEST); the sender then sends the manifest again
-without it, and no TRAILER crosses that connection.
+a lost packet before it is seen and sent again within a round trip. A receiver from
+before trailers refuses the offer as an unknown field (BAD_MANIFEST); the sender then
+sends the manifest again without it, and no TRAILER crosses that connection.
 
 Either side may send ERROR before closing when the other broke a rule (garbage, a frame
 out of place, data past the size).

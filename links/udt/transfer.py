@@ -225,22 +225,11 @@ def _send_all(sock: Any, data: bytes, watchdog: _Watchdog | None = None) -> None
 
 def _flush(sock: Any, conn: ReceiverConnection | SenderConnection,
            watchdog: _Watchdog | None = None) -> None:
-    """Send what ``conn`` queued, then its trailer in a send of its own (UDT starts a new
-    packet for each send, and the trailer must not share the last one), if the
-    connection has lost a packet: on a link that loses none, a trailer only costs (the
-    other end's UDT acknowledges it, and that is acknowledged in turn: 20 ms of a
-    14 s file without loss)."""
-    out, trailer = conn.data_to_send(), conn.trailer()
-    if out:
-        _send_all(sock, out, watchdog)
-    if trailer and _lossy(sock):
-        _send_all(sock, trailer, watchdog)
-
-
-def _lossy(sock: Any) -> bool:
-    """Whether UDT has lost a packet on this connection, either way (or cannot say)."""
-    stats = udt_stats.read(sock)
-    return stats is None or stats.lost > 0
+    """Send what ``conn`` queued, then its trailer in a send of its own: UDT starts a new
+    packet for each send, and the trailer must not share the last one."""
+    for out in (conn.data_to_send(), conn.trailer()):
+        if out:
+            _send_all(sock, out, watchdog)
 
 
 # --------------------------------------------------------------------------- sender

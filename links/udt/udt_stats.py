@@ -1,6 +1,6 @@
 """What libudt knows about a connection and udt4py does not pass on: the smoothed round
-trip, the packets in flight, the pace it sends at and the packets it lost. Does I/O
-(reads the library's state through ctypes).
+trip, the packets in flight and the pace it sends at. Does I/O (reads the library's state
+through ctypes).
 
 udt4py's ``perfmon`` fails on every call (its TraceInfo wrapper looks for a field it does
 not define), so the round trip is read with ``UDT::perfmon`` of the libudt udt4py is
@@ -77,8 +77,6 @@ class Stats:
     #: seconds between data packets UDT keeps to now: the longer of its congestion
     #: control's and the cap's (``UDT_MAXBW``); None before it has one
     pace: float | None = None
-    #: packets found lost on this connection so far, either way
-    lost: int = 0
 
 
 def read(sock: Any) -> Stats | None:
@@ -93,5 +91,4 @@ def read(sock: Any) -> Stats | None:
         return None
     settled = perf.msRTT > 0 and perf.pktRecvACKTotal >= SETTLED_ACKS
     return Stats(float(perf.msRTT) / 1000 if settled else None, max(0, perf.pktFlightSize),
-                 float(perf.usPktSndPeriod) / 1e6 if perf.usPktSndPeriod > 0 else None,
-                 max(0, perf.pktSndLossTotal) + max(0, perf.pktRcvLossTotal))
+                 float(perf.usPktSndPeriod) / 1e6 if perf.usPktSndPeriod > 0 else None)

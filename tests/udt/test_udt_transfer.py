@@ -248,9 +248,10 @@ def test_a_lost_last_packet_is_reported_at_once_not_waited_for(
         tmp_path: Path, make_file, pick: Callable[[str, bytes], bool], reporter: str):
     """The last packet before a pause has nothing behind it that shows it missing: UDT
     would wait for its retransmission timer (at least 300 ms, each time, on every lossy
-    segment and receipt). On a connection that has lost packets, the trailer behind it
-    makes the other end report the loss (a NAK) as soon as the trailer arrives."""
-    first, _ = make_file(200_000, name="first.png")  # its 10th packet lost: a lossy link
+    segment and receipt). The trailer behind it makes the other end report the loss (a
+    NAK) as soon as the trailer arrives, on a connection's first transfer and on later
+    ones (a batch, the relay's forwarder)."""
+    first, _ = make_file(200_000, name="first.png")  # its 10th packet lost too
     second, content = make_file(100_000, name="second.png")
     with UdtBulkChannel.ImageService(tmp_path / "ops") as ops, _LosesChosen(
             ops.address, [_tenth_data_packet(), pick], delay=0.02, lifetime=40) as proxy, \
