@@ -131,12 +131,19 @@ def _connect(address: tuple[str, int], timeout: float, max_rate_bps: int | None)
     raise ConnectionLost(f"no UDT answer from {address[0]}:{address[1]} within {timeout:g} s")
 
 
+def _option(sock: Any, name: str) -> int:
+    """A socket option's value, 0 when it cannot be read: the lanes' coordinator reads
+    a lane's socket while the lane's thread may be closing it, and udt4py raises
+    TypeError, not UDTException, for a closed socket (that ended a transfer's thread)."""
+    try:
+        return int(getattr(sock, name))
+    except (udt4py().UDTException, TypeError):
+        return 0
+
+
 def _payload(sock: Any) -> int:
     """File bytes a full data packet carries (the MSS less IP, UDP and UDT headers)."""
-    try:
-        return int(sock.UDT_MSS) - 44
-    except udt4py().UDTException:
-        return 0
+    return max(0, _option(sock, "UDT_MSS") - 44)
 
 
 def _pending(sock: Any) -> int:
@@ -144,10 +151,7 @@ def _pending(sock: Any) -> int:
 
     ``UDT_SNDDATA`` counts packets; each carries the MSS less IP, UDP and UDT headers.
     """
-    try:
-        return int(sock.UDT_SNDDATA) * (int(sock.UDT_MSS) - 44)
-    except udt4py().UDTException:
-        return 0
+    return _option(sock, "UDT_SNDDATA") * _payload(sock)
 
 
 def _delivered(sock: Any, timeout: float) -> None:

@@ -31,6 +31,7 @@ from links.udt.protocol import (
     FrameType,
     Manifest,
     Reason,
+    SenderConnection,
     encode_frame,
     transfer_id_for,
 )
@@ -263,6 +264,23 @@ def test_a_lost_last_packet_is_reported_at_once_not_waited_for(
     assert not proxy.picks, "the chosen packets never crossed the radio"
     assert proxy.naks[reporter] >= 1, "the loss waited for UDT's retransmission timer"
     assert (tmp_path / "ops" / "uuv1" / "second.png").read_bytes() == content
+
+
+def test_a_lane_closed_under_the_coordinators_look_reads_as_nothing_pending():
+    """The lanes' coordinator reads each lane's socket while the lane's own thread may be
+    closing it after a drop; udt4py then raises TypeError, which ended the whole
+    transfer's thread (seen once in a cut-twice run)."""
+    import udt4py
+
+    sock = udt4py.UDTSocket()
+    sock.close()
+    conn = SenderConnection()
+    m = manifest(b"x" * 5000)
+    conn.send_manifest(m, 0.0)
+    conn.receive_data(encode_frame(FrameType.ACCEPT, struct.pack(">Q", 1000)), 0.0)
+    sender = UdtBulkChannel.BulkSender(("127.0.0.1", free_udp_port()))
+    sender._live, sender._live_conn = sock, conn  # the lane mid-transfer, as it closes
+    assert sender.acknowledged() == (None, 1000, True)
 
 
 def test_transfer_through_a_lossy_delaying_rate_limited_link(tmp_path: Path, make_file):
