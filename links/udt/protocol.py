@@ -341,19 +341,16 @@ class Manifest:
         return cls(tid, vid, name, size, digest, fmt, ctime, atr, segment)
 
 
-def _offered_manifest(payload: bytes, knows_trailers: bool) -> tuple[Manifest, bool]:
-    """A MANIFEST payload's manifest, and whether it offers trailers (an end that knows
-    no trailers reads the offer as an unknown field, as one from before them did)."""
-    if not knows_trailers or TRAILERS.encode() not in payload:
-        return Manifest.from_json(payload), False
+def _offered_manifest(payload: bytes) -> tuple[Manifest, bool]:
+    """A MANIFEST payload's manifest, and whether it offers trailers."""
     try:
         data = json.loads(payload.decode("utf-8"))
     except (UnicodeDecodeError, ValueError):
-        return Manifest.from_json(payload), False  # says what is wrong with it
-    if not isinstance(data, dict) or data.get(TRAILERS) is not True:
-        return Manifest.from_json(payload), False
-    del data[TRAILERS]
-    return Manifest.from_mapping(data), True
+        return Manifest.from_json(payload), False  # raises, saying what is wrong with it
+    offered = isinstance(data, dict) and data.get(TRAILERS) is True
+    if offered:
+        del data[TRAILERS]
+    return Manifest.from_mapping(data), offered
 
 
 def _number(value: object, path: str, lo: float = -math.inf, hi: float = math.inf) -> float:
@@ -668,8 +665,6 @@ class State(Enum):
 class _Base:
     idle_timeout: float = 30.0
     state: State = State.IDLE
-    #: False: know no trailers, as a peer from before them (see the module doc)
-    knows_trailers: bool = True
     #: both ends agreed on trailers on this connection
     trailers: bool = False
     _reader: _FrameReader = field(default_factory=_FrameReader)
@@ -796,7 +791,7 @@ class ReceiverConnection(_Base):
         if ftype is FrameType.MANIFEST and self.state is State.AWAIT_MANIFEST:
             self._fetching = False
             try:
-                manifest, self._offered = _offered_manifest(payload, self.knows_trailers)
+                manifest, self._offered = _offered_manifest(payload)
             except ManifestError as exc:
                 self._out.append(encode_frame(FrameType.REFUSE, _coded(exc.code, exc.reason)))
                 self._turn()
@@ -902,6 +897,7 @@ class SenderConnection(_Base):
     #: the manifest went a second time, without the trailers' offer (a receiver from
     #: before them): its answer took two round trips
     resent: bool = False
+    _plain: bool = False  # the receiver refused the trailers' offer: none on this connection
     _manifest_bytes: bytes = b""
     _answered: bool = False
     _offered: bool = False
@@ -911,7 +907,7 @@ class SenderConnection(_Base):
         if self.state is not State.IDLE:
             raise BulkProtocolError(f"send_manifest() in state {self.state.value}")
         self.manifest = manifest
-        self._offered = self.knows_trailers and not self.trailers  # once a connection
+        self._offered = not (self._plain or self.trailers)  # once a connection
         self.resent = False
         self._announce()
         self._answered = False
@@ -920,10 +916,9 @@ class SenderConnection(_Base):
 
     def _announce(self) -> None:
         assert self.manifest is not None
-        data = self.manifest.to_json()
-        if self._offered:
-            data = json.dumps({**json.loads(data), TRAILERS: True},
-                              separators=(",", ":")).encode("utf-8")
+        data = json.dumps({**self.manifest.to_dict(), TRAILERS: True},
+                          separators=(",", ":"), allow_nan=False).encode("utf-8") \
+            if self._offered else self.manifest.to_json()
         self._manifest_bytes = data
         self._out.append(encode_frame(FrameType.MANIFEST, data))
         self._turn()
@@ -991,7 +986,7 @@ class SenderConnection(_Base):
             (code,) = struct.unpack_from(">H", payload)
             if code == Reason.BAD_MANIFEST and self._offered and not self.trailers:
                 # a receiver from before trailers: the same manifest without the offer
-                self.knows_trailers = self._offered = False
+                self._plain, self._offered = True, False
                 self.resent = True
                 self._announce()
                 return []
