@@ -48,6 +48,7 @@ from links.udt.transfer import (
     UdtService,
     _close,
     _flush,
+    _set,
     listen,
     udt4py,
 )
@@ -222,8 +223,7 @@ class ImageServer(UdtService):
 
     def _serve(self, sock: Any, peer: str) -> None:
         udt = udt4py()
-        sock.UDT_RCVTIMEO = POLL_MS
-        sock.UDT_SNDTIMEO = POLL_MS
+        _set(sock, {"UDT_RCVTIMEO": POLL_MS, "UDT_SNDTIMEO": POLL_MS})
         sender = BulkSender(sock.peer_address, max_rate_bps=self.max_rate_bps,
                             stop=self._stop, idle_timeout=self.idle_timeout)
         conn = SenderConnection(idle_timeout=self.idle_timeout)

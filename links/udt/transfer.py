@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any, Self
 
 from edge_vis.errors import LinkError
-from links.udt import udt_stats
+from links.udt import udt_calls, udt_stats
 from links.udt.lane_plan import segments_for
 from links.udt.lane_run import LaneRun
 from links.udt.protocol import (
@@ -93,37 +93,51 @@ class ConnectionLost(Exception):
 def _wire_rate(sock: Any, data_bps: float) -> int:
     """``UDT_MAXBW`` (bytes/s on the wire, IP and UDP headers included) for ``data_bps``
     bits of file data per second."""
-    mss = int(sock.UDT_MSS)
+    mss = _option(sock, "UDT_MSS") or 1500
     return max(1, int(data_bps / 8 * mss / (mss - 44)))
 
 
+def _set(sock: Any, options: Mapping[str, int]) -> bool:
+    """Set socket options (:mod:`links.udt.udt_calls`: a wait inside libudt does not stop
+    the other threads); False when libudt refused one (a closed or broken socket)."""
+    return all(udt_calls.set_option(sock, name, value) for name, value in options.items())
+
+
 def _connect(address: tuple[str, int], timeout: float, max_rate_bps: int | None) -> Any:
-    """Open a UDT connection within ``timeout`` seconds (UDT's own wait is a fixed 3 s)."""
+    """Open a UDT connection within ``timeout`` seconds (UDT's own wait is a fixed 3 s).
+    The state and options go through :mod:`links.udt.udt_calls`: read through udt4py,
+    a new lane's state waited with the GIL held while libudt tore down the lanes of the
+    file before, and the whole relay stood still."""
     udt = udt4py()
     sock = udt.UDTSocket()
     # A sender closes only after the receipt or on giving up a dead connection; either
     # way nothing queued is worth waiting for (UDT would linger up to 180 s by default).
-    sock.UDT_LINGER = 0
+    options = {"UDT_LINGER": 0, "UDT_RCVSYN": False}
     if max_rate_bps:
-        sock.UDT_MAXBW = max(1, int(max_rate_bps) // 8)
+        options["UDT_MAXBW"] = max(1, int(max_rate_bps) // 8)
         # Keep about two seconds of data in flight, so progress means "delivered" and a
         # slow link does not hold megabytes that a reconnection would send again.
-        sock.UDT_SNDBUF = int(min(SNDBUF_MAX, max(SNDBUF_MIN, max_rate_bps / 8 * 2)))
-    sock.UDT_RCVSYN = False
+        options["UDT_SNDBUF"] = int(min(SNDBUF_MAX, max(SNDBUF_MIN, max_rate_bps / 8 * 2)))
     try:
+        if not _set(sock, options):
+            raise ConnectionLost(f"libudt refused the options of a new socket to "
+                                 f"{address[0]}:{address[1]}")
         sock.connect(address)
     except udt.UDTException as exc:
         sock.close()
         raise ConnectionLost(f"connect to {address[0]}:{address[1]}: {exc}") from exc
+    except ConnectionLost:
+        sock.close()
+        raise
     status = udt.UDTSocket.Status
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
-        st = sock.status
+        st = udt_calls.state(sock)
         if st == status.CONNECTED:
-            sock.UDT_RCVSYN = True
-            sock.UDT_RCVTIMEO = POLL_MS
-            sock.UDT_SNDTIMEO = POLL_MS
-            return sock
+            if _set(sock, {"UDT_RCVSYN": True, "UDT_RCVTIMEO": POLL_MS,
+                           "UDT_SNDTIMEO": POLL_MS}):
+                return sock
+            break
         if st not in (status.CONNECTING, status.OPENED, status.INIT):
             break
         time.sleep(0.005)
@@ -132,11 +146,12 @@ def _connect(address: tuple[str, int], timeout: float, max_rate_bps: int | None)
 
 
 def _option(sock: Any, name: str) -> int:
-    """A socket option's value, 0 when it cannot be read: the lanes' coordinator reads
-    a lane's socket while the lane's thread may be closing it, and udt4py raises
-    TypeError, not UDTException, for a closed socket (that ended a transfer's thread)."""
+    """A socket option's value (:mod:`links.udt.udt_calls`), 0 when it cannot be read:
+    the lanes' coordinator reads a lane's socket while the lane's thread may be closing
+    it, and udt4py raises TypeError, not UDTException, for a closed socket (that ended a
+    transfer's thread)."""
     try:
-        return int(getattr(sock, name))
+        return udt_calls.get_option(sock, name) or 0
     except (udt4py().UDTException, TypeError):
         return 0
 
@@ -363,8 +378,7 @@ class BulkSender:
         if cap and cap != self._cap_on:
             self._cap_on = cap
             with contextlib.suppress(udt4py().UDTException):
-                sock.UDT_MAXBW = _wire_rate(sock, cap)
-                sock.UDT_RCVTIMEO = CAP_POLL_MS
+                _set(sock, {"UDT_MAXBW": _wire_rate(sock, cap), "UDT_RCVTIMEO": CAP_POLL_MS})
 
     @property
     def target(self) -> str:
@@ -471,7 +485,7 @@ class BulkSender:
         self._idle = (None, None)
         self._pending_events.clear()
         if sock is not None and conn is not None and conn.state is State.IDLE:
-            if sock.status == udt4py().UDTSocket.Status.CONNECTED:
+            if udt_calls.state(sock) == udt4py().UDTSocket.Status.CONNECTED:
                 return sock, conn, True
             _close(sock)
         sock = _connect(self.address, self.connect_timeout, self.max_rate_bps)
@@ -897,7 +911,7 @@ class BulkReceiver(UdtService):
         self._local.sock = sock
         self._local.outcome = None
         self._local.expect = request
-        sock.UDT_RCVTIMEO = POLL_MS
+        _set(sock, {"UDT_RCVTIMEO": POLL_MS})
         if conn is None:
             conn = ReceiverConnection(idle_timeout=self.idle_timeout, keys=self.keys)
         buf = bytearray(DATA_CHUNK)

@@ -15,9 +15,10 @@ answers alone.
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 from dataclasses import dataclass
 from typing import Any
+
+from links.udt import udt_calls
 
 _I64, _INT, _DBL = ctypes.c_int64, ctypes.c_int, ctypes.c_double
 
@@ -52,17 +53,8 @@ def _function() -> Any:
     global _perfmon, _loaded
     if not _loaded:
         _loaded = True
-        for name in ("libudt.so.0", ctypes.util.find_library("udt")):
-            if not name:
-                continue
-            try:
-                fn = getattr(ctypes.CDLL(name), _SYMBOL)
-            except (OSError, AttributeError):
-                continue
-            fn.argtypes = [ctypes.c_int, ctypes.POINTER(_PerfMon), ctypes.c_bool]
-            fn.restype = ctypes.c_int
-            _perfmon = fn
-            break
+        _perfmon = udt_calls.function(
+            _SYMBOL, [ctypes.c_int, ctypes.POINTER(_PerfMon), ctypes.c_bool], ctypes.c_int)
     return _perfmon
 
 
