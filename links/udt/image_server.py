@@ -50,6 +50,7 @@ from links.udt.transfer import (
     _flush,
     _set,
     listen,
+    parse_address,
     udt4py,
 )
 
@@ -224,7 +225,8 @@ class ImageServer(UdtService):
     def _serve(self, sock: Any, peer: str) -> None:
         udt = udt4py()
         _set(sock, {"UDT_RCVTIMEO": POLL_MS, "UDT_SNDTIMEO": POLL_MS})
-        sender = BulkSender(sock.peer_address, max_rate_bps=self.max_rate_bps,
+        # (the peer as accept gave it: udt4py's peer_address holds the GIL in libudt)
+        sender = BulkSender(parse_address(peer), max_rate_bps=self.max_rate_bps,
                             stop=self._stop, idle_timeout=self.idle_timeout)
         conn = SenderConnection(idle_timeout=self.idle_timeout)
         buf = bytearray(64 * 1024)
