@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import functools
 from typing import Any
 
 OPTIONS = {name: number for number, name in enumerate((
@@ -44,24 +45,19 @@ _SYMBOLS = {
             [ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_void_p, ctypes.c_int],
             ctypes.c_int),
 }
-_library: Any = None
-_loaded = False
+"""The calls made here: kind -> (mangled symbol in libudt, argument types, result type)."""
 
 
+@functools.cache
 def library() -> Any:
     """libudt (the one udt4py is linked against) as a ``ctypes.CDLL``, or None."""
-    global _library, _loaded
-    if not _loaded:
-        _loaded = True
-        for name in ("libudt.so.0", ctypes.util.find_library("udt")):
-            if not name:
-                continue
+    for name in ("libudt.so.0", ctypes.util.find_library("udt")):
+        if name:
             try:
-                _library = ctypes.CDLL(name)
-                break
+                return ctypes.CDLL(name)
             except OSError:
                 continue
-    return _library
+    return None
 
 
 def function(symbol: str, argtypes: list[Any], restype: Any) -> Any:
@@ -76,13 +72,10 @@ def function(symbol: str, argtypes: list[Any], restype: Any) -> Any:
     return fn
 
 
-_functions: dict[str, Any] = {}
-
-
+@functools.cache
 def _fn(kind: str) -> Any:
-    if kind not in _functions:
-        _functions[kind] = function(*_SYMBOLS[kind])
-    return _functions[kind]
+    """One of :data:`_SYMBOLS`' functions, or None (looked up once)."""
+    return function(*_SYMBOLS[kind])
 
 
 CLOSED = 8

@@ -15,6 +15,7 @@ answers alone.
 from __future__ import annotations
 
 import ctypes
+import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -45,17 +46,12 @@ SETTLED_ACKS = 40
 """ACKs a connection must have had before its round trip is read: UDT starts from a
 guess of 100 ms and smooths each side's estimate by 1/8 per exchange."""
 _SYMBOL = "_ZN3UDT7perfmonEiP8CPerfMonb"  # UDT::perfmon(int, CPerfMon*, bool)
-_perfmon: Any = None
-_loaded = False
 
 
+@functools.cache
 def _function() -> Any:
-    global _perfmon, _loaded
-    if not _loaded:
-        _loaded = True
-        _perfmon = udt_calls.function(
-            _SYMBOL, [ctypes.c_int, ctypes.POINTER(_PerfMon), ctypes.c_bool], ctypes.c_int)
-    return _perfmon
+    return udt_calls.function(
+        _SYMBOL, [ctypes.c_int, ctypes.POINTER(_PerfMon), ctypes.c_bool], ctypes.c_int)
 
 
 @dataclass(frozen=True, slots=True)
