@@ -161,12 +161,13 @@ def _payload(sock: Any) -> int:
     return max(0, _option(sock, "UDT_MSS") - 44)
 
 
-def _pending(sock: Any) -> int:
+def _pending(sock: Any, payload: int | None = None) -> int:
     """Bytes accepted by UDT but not yet acknowledged by the peer (approximately).
 
-    ``UDT_SNDDATA`` counts packets; each carries the MSS less IP, UDP and UDT headers.
+    ``UDT_SNDDATA`` counts packets; each carries the MSS less IP, UDP and UDT headers
+    (``payload``, read from the socket when not given).
     """
-    return _option(sock, "UDT_SNDDATA") * _payload(sock)
+    return _option(sock, "UDT_SNDDATA") * (_payload(sock) if payload is None else payload)
 
 
 def _delivered(sock: Any, timeout: float) -> None:
@@ -342,10 +343,10 @@ class BulkSender:
             return None
         if state not in (State.SENDING, State.AWAIT_RECEIPT):
             return manifest.segment, 0, False
-        pending = _pending(sock)
+        payload = _payload(sock)
+        pending = _pending(sock, payload)
         stats = udt_stats.read(sock)
         self._round_trip = None if stats is None else stats.round_trip
-        payload = _payload(sock)
         self._ceiling = payload * 8 / stats.pace if stats and stats.pace and payload else None
         # data still to leave: what UDT holds less what it sent and awaits an ACK for
         unsent = pending if stats is None else pending - stats.in_flight * payload
