@@ -1,9 +1,14 @@
 """Bulk image transfer over UDT: goodput on loopback, through a lossy radio, and resume time.
 
-Run: ``.venv/bin/python bench/bulk.py [--quick] [--only ROWS] [--repeat N]``. Prints a
-table; asserts nothing. ``--only`` runs some rows (comma-separated: ``loopback``,
-``fixed`` = one connection and six lanes, ``adaptive`` = no flags, ``budget``,
-``forwarder``, ``pull``, ``resume``); ``--repeat`` runs each radio row that many times.
+Run: ``.venv/bin/python bench/bulk.py [--quick] [--only ROWS] [--repeat N] [--stalls]
+[--gap S]``. Prints a table; asserts nothing. ``--only`` runs some rows (comma-separated:
+``loopback``, ``fixed`` = one connection and six lanes, ``adaptive`` = no flags,
+``budget``, ``forwarder``, ``pull``, ``resume``); ``--repeat`` runs each radio row that
+many times; ``--stalls`` adds to each radio row how often the bench's own process (the
+sender, the relay and the receiver all live in it) stood still 40 ms or more while the
+row's clock ran, from a thread that sleeps 5 ms at a time and notes when it wakes late;
+``--gap S`` waits S seconds before each radio row (libudt tears down the connections of
+the row before a second or two after they close).
 
 * ``loopback``: files of 1 MiB and 50 MiB sent to a receiver on 127.0.0.1, timed from the
   first byte of the manifest to the receipt confirming the SHA-256 (the sender's hash is
@@ -92,20 +97,54 @@ def _timed_send(path: Path, manifest: object, address: tuple[str, int],
     return elapsed
 
 
+class Stalls:
+    """Notes when this process stood still: a thread sleeps ``TICK`` seconds at a time
+    and records each wake-up ``LATE`` seconds or more behind (``--stalls``)."""
+
+    TICK = 0.005
+    LATE = 0.040
+
+    def __init__(self) -> None:
+        self.seen: list[tuple[float, float]] = []  # (when it began, how long)
+        threading.Thread(target=self._watch, name="bench-stalls", daemon=True).start()
+
+    def _watch(self) -> None:
+        while True:
+            before = time.monotonic()
+            time.sleep(self.TICK)
+            late = time.monotonic() - before - self.TICK
+            if late >= self.LATE:
+                self.seen.append((before, late))
+
+    def between(self, started: float, ended: float) -> str:
+        """The stalls that began while a row's clock ran, as a note."""
+        inside = [late for when, late in self.seen if started <= when < ended]
+        if not inside:
+            return "; process never stood still 40 ms or more"
+        return (f"; process stood still {len(inside)} times (longest "
+                f"{max(inside) * 1000:.0f} ms, in its first second "
+                f"{sum(1 for when, _ in self.seen if started <= when < started + 1)})")
+
+
+STALLS: Stalls | None = None
+"""The watchdog of ``--stalls``, or None."""
+
+
 def _where(counters: dict, started: float, ended: float) -> str:
     """Where a radio row's time went (see the module doc), from the proxy's timelines."""
+    stalls = STALLS.between(started, ended) if STALLS is not None else ""
     lines = [counters.get(f"{d}_timeline") for d in ("up", "down")]
     line = max((t for t in lines if t is not None and t.first_full is not None),
                key=lambda t: t.busy_full, default=None)
     if line is None:
-        return ""
+        return stalls.lstrip("; ")
     first, last = line.first_full, line.last_full
     return (f"data on the radio {(first - started) * 1000:.0f} ms after the start, idle "
             f"{line.idle(first, last) * 1000:.0f} ms while it flowed (first s "
             f"{line.idle(first, first + 1) * 1000:.0f}, last s "
             f"{line.idle(last - 1, last) * 1000:.0f}), done {(ended - last) * 1000:.0f} ms "
             f"after it; radio busy {line.busy_full + line.busy_small:.2f} s (control "
-            f"{line.busy_small * 1000:.0f} ms{_most_control(line)})")
+            f"{line.busy_small * 1000:.0f} ms{_most_control(line)})" + stalls)
 
 
 def _of_link(mbps: float) -> str:
@@ -281,7 +320,14 @@ def main() -> None:
                         help=f"comma-separated rows to run, of {', '.join(ROWS)} (default: all)")
     parser.add_argument("--repeat", type=int, default=1,
                         help="run each radio row this many times (default 1)")
+    parser.add_argument("--stalls", action="store_true",
+                        help="say in each radio row how often this process stood still")
+    parser.add_argument("--gap", type=float, default=0.0,
+                        help="seconds to wait before each radio row (default 0)")
     args = parser.parse_args()
+    global STALLS
+    if args.stalls:
+        STALLS = Stalls()
     only = set(args.only.split(","))
     if only - set(ROWS):
         parser.error(f"unknown rows: {', '.join(sorted(only - set(ROWS)))}")
@@ -309,6 +355,7 @@ def main() -> None:
                     continue
                 size = (4 << 20) if lanes == 1 and loss else radio_size
                 for _ in range(args.repeat):
+                    time.sleep(args.gap)
                     good, c, history, where = radio(folder, size, loss, lanes, max_rate)
                     steps = _paced(history) if lanes == 0 else ""
                     rows.append((f"radio 10M/{loss:.0%}/20ms, {label}", f"{good:7.2f} Mbit/s",
@@ -318,6 +365,7 @@ def main() -> None:
                                  + (f"; {steps}" if steps else "") + f"; {where}"))
         for loss in (0.02, 0.0):
             for _ in range(args.repeat if "forwarder" in only else 0):
+                time.sleep(args.gap)
                 good, where, history = forwarded(folder, radio_size, loss)
                 rows.append((f"radio 10M/{loss:.0%}/20ms, relay forwarder, adaptive",
                              f"{good:7.2f} Mbit/s", f"{_of_link(good)} of link; "
@@ -325,6 +373,7 @@ def main() -> None:
                              f"{_paced(history)}; {where}"))
         for loss in (0.02, 0.0):
             for _ in range(args.repeat if "pull" in only else 0):
+                time.sleep(args.gap)
                 good, where, history = pulled(folder, radio_size, loss)
                 rows.append((f"radio 10M/{loss:.0%}/20ms, relay pulls (serve-images)",
                              f"{good:7.2f} Mbit/s", f"{_of_link(good)} of link; "
