@@ -16,6 +16,10 @@ from JSIDL::
     message = "ReportSnapshot"
     image = { data = "image_file", format = "png", sha256_field = "sha256" }
 
+    [[translators.generic.mappings]]      # a message announcing a file the vehicle serves
+    message = "ReportSurveyImage"         # (serve-images): the relay fetches it over UDT
+    image = { name_field = "file_name", size_field = "size", sha256_field = "sha256" }
+
     [[translators.generic.commands]]      # DDS -> JAUS, only from the operator in control
     topic = "CameraPointing"
     message = "SetCameraPointing"
@@ -30,7 +34,9 @@ topic has ``vehicle_id`` and ``operator_id``. Command values are clamped to the 
 JSIDL declares (the codec scales them); the engine gates, throttles and expires them as it
 does every command. An image mapping checks the file against the size and SHA-256 the
 message declares and publishes it as ``ImageProduct`` + ``ImageData`` chunks
-(:mod:`edge_vis.kit.imagery`).
+(:mod:`edge_vis.kit.imagery`); one without ``data`` announces a file the vehicle serves:
+its ``ImageProduct`` has no transfer id yet, and the relay's bulk channel fetches the file
+and fills it in, as for the uuv set's ReportAtrImageAvailable.
 
 The tables are declared as dataclasses and read by the validation kit. Before the relay
 starts (and in ``edge-vis check``), :meth:`GenericTranslator.verify` looks every message,
@@ -44,6 +50,7 @@ record is flattened when decoded, and a path qualified by that record's name
 from __future__ import annotations
 
 import hashlib
+import re
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, Literal
@@ -58,6 +65,7 @@ from edge_vis.kit import (
     ConfigError,
     Const,
     From,
+    Publish,
     Put,
     PutEach,
     ReportRule,
@@ -112,20 +120,34 @@ class ImageOptions:
     The format is ``format`` or read from ``format_field`` (a value set gives its name);
     ``id_field`` names the image; ``size_field`` and ``sha256_field`` are what the message
     declares of the file, checked against the bytes that arrived.
+
+    Without ``data`` the message announces a file the vehicle serves over the bulk
+    channel (``serve-images``): ``size_field`` and ``sha256_field`` are then required (the
+    relay fetches the file and verifies it by them), and ``name_field`` is the file's name
+    on the vehicle (``<id>.<format>`` when left out).
     """
 
-    data: str = setting(check=_non_empty, doc="the variable-length field holding the file")
+    data: str = setting("", doc="the variable-length field holding the file (none: the "
+                                "message announces a file the vehicle serves)")
     kind: Literal["image", "file"] = "image"
     format: str = ""
     format_field: str = ""
     id_field: str = ""
     size_field: str = ""
     sha256_field: str = ""
+    name_field: str = ""
 
     def validate(self) -> Iterator[tuple[str, str]]:
-        """One source for the format."""
+        """One source for the format; an announcement declares what to fetch."""
         if self.format and self.format_field:
             yield "format_field", "give format or format_field, not both"
+        if self.data and self.name_field:
+            yield "name_field", "a message carrying the file (data) names it by id_field"
+        if not self.data:
+            for key in ("size_field", "sha256_field"):
+                if not getattr(self, key):
+                    yield key, ("an announcement (no data) needs it: the relay fetches the "
+                                "file and verifies it by its size and SHA-256")
 
 
 @dataclass(frozen=True, slots=True)
@@ -289,7 +311,7 @@ def catalogue_problems(mapping: GenericMapping, catalogue: Any) -> Iterator[tupl
 def _image_problems(image: ImageOptions, defn: Any) -> Iterator[tuple[str, str]]:
     wanted = {"data": ("octets",), "format_field": ("string", "int"),
               "id_field": ("string", "int"), "size_field": ("int",),
-              "sha256_field": ("string", "octets")}
+              "sha256_field": ("string", "octets"), "name_field": ("string",)}
     for key, kinds in wanted.items():
         path = getattr(image, key)
         if not path:
@@ -354,7 +376,8 @@ def resolved(mapping: GenericMapping, catalogue: Any) -> GenericMapping:
     if image is not None:
         image = replace(image, data=path(image.data), format_field=path(image.format_field),
                         id_field=path(image.id_field), size_field=path(image.size_field),
-                        sha256_field=path(image.sha256_field))
+                        sha256_field=path(image.sha256_field),
+                        name_field=path(image.name_field))
     return replace(mapping, fields={dds: path(p) for dds, p in mapping.fields.items()},
                    image=image)
 
@@ -441,7 +464,7 @@ class GenericTranslator(RuleTranslator):
         # instance attributes: this translator's declarations come from the profile
         self.report_rules = rules  # type: ignore[misc]
         self.command_rules = command_rules  # type: ignore[misc]
-        extra = (IMAGE_DATA,) if any(m.image is not None for m in mappings) else ()
+        extra = (IMAGE_DATA,) if any(m.image is not None and m.image.data for m in mappings) else ()
         for name, value in declarations(rules, command_rules, (), extra).items():
             setattr(self, name, value)
         self._by_message = {}
@@ -458,12 +481,17 @@ class GenericTranslator(RuleTranslator):
     def _rule(m: GenericMapping, defn: Any) -> ReportRule:
         spec: dict[str, Any]
         if m.image is not None:
-            spec = {"image_id": Computed(lambda e: "", f"{m.message}-<{m.image.id_field}>"),
-                    "data": From(m.image.data, note="ImageData chunks")}
+            spec = {"image_id": Computed(lambda e: "", f"{m.message}-<{m.image.id_field}>")}
+            if m.image.data:
+                spec["data"] = From(m.image.data, note="ImageData chunks")
+                doc = f"{m.image.kind}: ImageProduct + ImageData chunks of <= {CHUNK_BYTES} bytes"
+            else:
+                spec.update(size_bytes=From(m.image.size_field),
+                            sha256=From(m.image.sha256_field))
+                doc = f"{m.image.kind} announced; the bulk channel fetches it"
             return ReportRule(m.message, IMAGE_PRODUCT, spec, query=m.query,
                               service=m.service, query_fields=m.query_fields, rate=m.rate,
-                              stamp=False, doc=f"{m.image.kind}: ImageProduct + ImageData "
-                                               f"chunks of <= {CHUNK_BYTES} bytes")
+                              stamp=False, doc=doc)
         if m.generic:
             def fields_of(jaus: Mapping[str, Any], m: GenericMapping = m) -> list[dict[str, Any]]:
                 return [{"name": dds, **generic_value(value)} for dds, path in m.fields.items()
@@ -585,31 +613,48 @@ def _labels(defn: Any, path: str) -> Mapping[int, str]:
     return dict(getattr(field_at(defn.body, path)[0], "labels", {}) or {})
 
 
+_SHA256_HEX = re.compile("[0-9a-f]{64}")
+"""A SHA-256 as lower-case hex: what an announcement must declare to be fetched."""
+
+
+def _declared_sha256(fields: Mapping[str, Any], image: ImageOptions) -> str:
+    """The SHA-256 a message declares, as lower-case hex ("" when it declares none)."""
+    declared = get_path(fields, image.sha256_field) if image.sha256_field else None
+    return declared.hex() if isinstance(declared, bytes | bytearray) else \
+        str(declared or "").strip().lower()
+
+
 def image_actions(mapping: GenericMapping, labels: Mapping[int, str],
                   fields: Mapping[str, Any], ctx: TranslatorContext) -> list[Action]:
     """An image mapping's ``ImageProduct`` and ``ImageData`` for one message, after
     checking the file against the size and SHA-256 the message declares (a mismatch is
-    refused with a ValueError: the translator's error counter and log say why)."""
+    refused with a ValueError: the translator's error counter and log say why); for an
+    announcement (no ``data``), the ``ImageProduct`` alone, without a transfer id, for the
+    relay's bulk channel to fetch."""
     assert ctx.vehicle is not None and mapping.image is not None
     image = mapping.image
-    raw = get_path(fields, image.data)
-    if not isinstance(raw, bytes | bytearray):
-        raise ValueError(f"{mapping.message}: no {image.data} bytes in the message")
-    data = bytes(raw)
-    digest = hashlib.sha256(data).hexdigest()
     what = f"{mapping.message} from {ctx.vehicle.vehicle_id}"
-    if image.size_field:
-        declared = get_path(fields, image.size_field)
-        if declared is not None and int(declared) != len(data):
-            raise ValueError(f"{what}: {len(data)} bytes arrived, {image.size_field} "
+    data: bytes | None = None
+    if image.data:
+        raw = get_path(fields, image.data)
+        if not isinstance(raw, bytes | bytearray):
+            raise ValueError(f"{mapping.message}: no {image.data} bytes in the message")
+        data = bytes(raw)
+        digest, size = hashlib.sha256(data).hexdigest(), len(data)
+        declared = get_path(fields, image.size_field) if image.size_field else None
+        if declared is not None and int(declared) != size:
+            raise ValueError(f"{what}: {size} bytes arrived, {image.size_field} "
                              f"declares {declared}; dropped")
-    if image.sha256_field:
-        declared = get_path(fields, image.sha256_field)
-        text = declared.hex() if isinstance(declared, bytes | bytearray) else \
-            str(declared or "").strip().lower()
+        text = _declared_sha256(fields, image)
         if text and text != digest:
             raise ValueError(f"{what}: SHA-256 {digest[:16]}... differs from "
                              f"{image.sha256_field} {text[:16]}...; dropped")
+    else:
+        digest, declared = _declared_sha256(fields, image), get_path(fields, image.size_field)
+        if not _SHA256_HEX.fullmatch(digest) or not isinstance(declared, int) or declared < 0:
+            raise ValueError(f"{what}: announces no file to fetch ({image.size_field} "
+                             f"{declared!r}, {image.sha256_field} {digest[:16]!r}); dropped")
+        size = declared
     ident = get_path(fields, image.id_field) if image.id_field else None
     image_id = f"{mapping.message}-{ident}" if ident is not None else \
         f"{mapping.message}-{digest[:16]}"
@@ -618,7 +663,10 @@ def image_actions(mapping: GenericMapping, labels: Mapping[int, str],
         value = get_path(fields, image.format_field)
         fmt = labels.get(value, str(value)) if isinstance(value, int) else str(value or "")
     fmt = fmt.lower() or ("bin" if image.kind == "file" else "")
+    name = get_path(fields, image.name_field) if image.name_field else None
     product = {"vehicle_id": ctx.vehicle.vehicle_id, "image_id": image_id,
-               "file_name": f"{image_id}.{fmt or 'img'}", "size_bytes": len(data),
+               "file_name": str(name or f"{image_id}.{fmt or 'img'}"), "size_bytes": size,
                "sha256": digest, "format": fmt, "capture_time_ms": ctx.timestamp_ms}
+    if data is None:
+        return [Publish(IMAGE_PRODUCT, {**product, "transfer_id": "", "targets": []})]
     return list(publish_image(product, data))

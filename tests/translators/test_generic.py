@@ -3,6 +3,7 @@ translator; removing any one translator from the selection leaves the others wor
 
 from __future__ import annotations
 
+import hashlib
 import random
 from pathlib import Path
 from typing import Any
@@ -276,3 +277,62 @@ def test_a_wrong_record_name_alone_is_not_taken_for_a_qualifier(catalogue: Catal
         ((file, key, reason),) = info.value.problems
         assert (file, key) == ("p.toml", "translators.generic.mappings[0].fields.x")
         assert problem in reason, reason
+
+
+#: a vehicle's JSIDL whose message announces an image file it serves over the bulk channel
+SURVEY_JSIDL = Path(__file__).parent / "SurveyImages.xml"
+ANNOUNCE = {"message": "ReportSurveyImage",
+            "image": {"id_field": "image_id", "name_field": "file_name", "format": "png",
+                      "size_field": "size", "sha256_field": "sha256"}}
+
+
+def _announcing(catalogue: Catalogue) -> tuple[GenericTranslator, Catalogue]:
+    extended = catalogue.copy()
+    extended.add(load_jsidl([SURVEY_JSIDL]), source="test JSIDL")
+    tr = GenericTranslator()
+    tr.configure({"mappings": [ANNOUNCE]})
+    tr.verify(extended)
+    return tr, extended
+
+
+def test_an_announcement_mapping_publishes_a_product_for_the_relay_to_fetch(
+        catalogue: Catalogue) -> None:
+    """No data field: the message announces a file the vehicle serves; the product has no
+    transfer id, which is what makes the relay fetch it (tests/udt/test_relay_bulk.py)."""
+    tr, extended = _announcing(catalogue)
+    assert tr.publishes == ("ImageProduct",)
+    digest = hashlib.sha256(b"survey").hexdigest()
+    message = extended.decode(extended.encode("ReportSurveyImage", {
+        "image_id": 7, "size": 123_456, "sha256": digest, "file_name": "survey-7.png"}))
+    (action,) = tr.on_message(message.name, message.fields, CTX)  # no ImageData chunks
+    assert isinstance(action, Publish) and action.topic == "ImageProduct"
+    assert action.sample == {
+        "vehicle_id": "veh1", "image_id": "ReportSurveyImage-7", "file_name": "survey-7.png",
+        "size_bytes": 123_456, "sha256": digest, "format": "png",
+        "capture_time_ms": CTX.timestamp_ms, "transfer_id": "", "targets": []}
+    converter_for(TYPES["ImageProduct"]).to_struct(action.sample, "ImageProduct")
+    (row,) = [r for r in tr.describe() if r["message"] == "ReportSurveyImage"]
+    assert "the bulk channel fetches it" in row["doc"]
+
+
+def test_an_announcement_of_nothing_fetchable_is_refused_with_the_reason(
+        catalogue: Catalogue) -> None:
+    tr, extended = _announcing(catalogue)
+    message = extended.decode(extended.encode("ReportSurveyImage", {
+        "image_id": 8, "size": 10, "sha256": "x" * 64, "file_name": "survey-8.png"}))
+    with pytest.raises(ValueError, match="announces no file to fetch"):
+        tr.on_message(message.name, message.fields, CTX)
+
+
+@pytest.mark.parametrize(("image", "where", "text"), [
+    ({"id_field": "image_id", "sha256_field": "sha256"}, "size_field", "announcement"),
+    ({"id_field": "image_id", "size_field": "size"}, "sha256_field", "announcement"),
+    ({"data": "image_file", "name_field": "file_name"}, "name_field", "id_field"),
+])
+def test_an_announcement_mapping_declares_what_to_fetch(image: dict[str, str], where: str,
+                                                        text: str) -> None:
+    with pytest.raises(ConfigError) as info:
+        parse_mappings({"mappings": [{"message": "ReportSurveyImage", "image": image}]},
+                       "p.toml")
+    assert any(path == f"translators.generic.mappings[0].image.{where}" and text in message
+               for _, path, message in info.value.problems), info.value.problems

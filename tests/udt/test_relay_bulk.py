@@ -134,3 +134,68 @@ def test_relay_fetches_an_announced_image_from_the_vehicle(
     assert products[("Nemo-60", "atr-12")]["transfer_id"]
     (stored,) = (tmp_path / "images").rglob("atr-12.png")
     assert stored.read_bytes() == content
+
+
+def test_relay_fetches_an_image_announced_by_a_profile_mapping(
+    tmp_path: Path, make_file: Callable[..., tuple[Path, bytes]]
+) -> None:
+    """A custom vehicle declared in a profile, no Python: the generic translator's
+    announcement mapping (tests/translators/SurveyImages.xml) yields the product, and the
+    relay's publish path fetches the file it names from the vehicle's image server."""
+    from edge_vis.catalogue import default_catalogue
+    from edge_vis.catalogue.jsidl import load_jsidl
+    from edge_vis.jaus.address import JausAddress
+    from edge_vis.kit import TranslatorContext, VehicleView
+    from translators.generic import GenericTranslator
+
+    catalogue = default_catalogue()
+    catalogue.add(load_jsidl([Path(__file__).parents[1] / "translators" / "SurveyImages.xml"]),
+                  source="test JSIDL")
+    generic = GenericTranslator()
+    generic.configure({"mappings": [{"message": "ReportSurveyImage", "image": {
+        "id_field": "image_id", "name_field": "file_name", "format": "png",
+        "size_field": "size", "sha256_field": "sha256"}}]})
+    generic.verify(catalogue)
+    path, content = make_file(300_000, "survey-7.png")
+    message = catalogue.decode(catalogue.encode("ReportSurveyImage", {
+        "image_id": 7, "size": len(content), "sha256": sha(content), "file_name": path.name}))
+    vehicle = VehicleView("Survey-1", 151, name="Survey", address=JausAddress(151, 1, 1),
+                          online=True)
+    ctx = TranslatorContext(now=0.0, timestamp_ms=0, relay_id=JausAddress(42, 1, 1),
+                            vehicle=vehicle, catalogue=catalogue)
+    (action,) = generic.on_message(message.name, message.fields, ctx)
+    port = free_udp_port()
+    recorder = Recorder()
+    with udt.UdtBulkChannel.ImageServer(path.parent, vehicle_id="Survey-1") as server:
+        host, sport = server.address
+        text = f"""
+        [access]
+        any_operator = true
+        [bulk]
+        listen = "127.0.0.1:{port}"
+        dir = "{tmp_path / 'images'}"
+        [bulk.sources]
+        "Survey-1" = "{host}:{sport}"
+        """
+        prof = from_mapping(tomllib.loads(text), file="relay.toml")
+
+        async def main() -> None:
+            runtime = Runtime(prof, publisher_factory=lambda _rt: recorder)
+            await runtime.start()
+            try:
+                runtime._publish(action.topic, action.sample)
+                for _ in range(200):
+                    await asyncio.sleep(0.05)
+                    if any(t == "ImageProduct" and s["transfer_id"] for t, s in recorder.samples):
+                        break
+                await asyncio.sleep(0.3)
+            finally:
+                await runtime.stop()
+
+        asyncio.run(main())
+    products = {(s["vehicle_id"], s["image_id"]): s for t, s in recorder.samples
+                if t == "ImageProduct"}
+    assert list(products) == [("Survey-1", "ReportSurveyImage-7")]  # one product, fetched
+    assert products[("Survey-1", "ReportSurveyImage-7")]["transfer_id"]
+    (stored,) = (tmp_path / "images").rglob("survey-7.png")
+    assert stored.read_bytes() == content
