@@ -45,6 +45,42 @@ def profile(tmp_path: Path, port: int) -> RelayProfile:
     return from_mapping(tomllib.loads(text), file="relay.toml")
 
 
+def fetch_announced(tmp_path: Path, server: tuple[str, int], vehicle_id: str,
+                    announced: dict) -> dict[tuple[str, str], dict]:
+    """Run the relay with ``[bulk]`` and ``server`` as ``vehicle_id``'s image server, put
+    ``announced`` through its publish path and wait for the fetched product; return the
+    ``ImageProduct`` samples it published, by key."""
+    recorder = Recorder()
+    text = f"""
+    [access]
+    any_operator = true
+    [bulk]
+    listen = "127.0.0.1:{free_udp_port()}"
+    dir = "{tmp_path / 'images'}"
+    fetch_priority = "oldest"
+    [bulk.sources]
+    "{vehicle_id}" = "{server[0]}:{server[1]}"
+    """
+    prof = from_mapping(tomllib.loads(text), file="relay.toml")
+
+    async def main() -> None:
+        runtime = Runtime(prof, publisher_factory=lambda _rt: recorder)
+        await runtime.start()
+        try:
+            runtime._publish("ImageProduct", announced)
+            for _ in range(200):
+                await asyncio.sleep(0.05)
+                if any(t == "ImageProduct" and s["transfer_id"] for t, s in recorder.samples):
+                    break
+            await asyncio.sleep(0.3)
+        finally:
+            await runtime.stop()
+
+    asyncio.run(main())
+    return {(s["vehicle_id"], s["image_id"]): s for t, s in recorder.samples
+            if t == "ImageProduct"}
+
+
 def test_relay_receives_verifies_and_announces_an_image(
     tmp_path: Path, make_file: Callable[..., tuple[Path, bytes]]
 ) -> None:
@@ -94,42 +130,12 @@ def test_relay_fetches_an_announced_image_from_the_vehicle(
     """The uuv translator's announcement goes through the relay's publish path: the relay
     fetches the file from the vehicle's image server and the announced product (same
     key) gains the transfer id; no second product appears."""
-    port = free_udp_port()
     path, content = make_file(400_000, "atr-12.png")
-    recorder = Recorder()
+    announced = {"vehicle_id": "Nemo-60", "image_id": "atr-12", "file_name": "atr-12.png",
+                 "size_bytes": len(content), "sha256": sha(content), "transfer_id": "",
+                 "format": "png", "capture_time_ms": 0, "targets": []}
     with udt.UdtBulkChannel.ImageServer(path.parent, vehicle_id="uuv-delta") as server:
-        host, sport = server.address
-        text = f"""
-        [access]
-        any_operator = true
-        [bulk]
-        listen = "127.0.0.1:{port}"
-        dir = "{tmp_path / 'images'}"
-        fetch_priority = "oldest"
-        [bulk.sources]
-        "Nemo-60" = "{host}:{sport}"
-        """
-        prof = from_mapping(tomllib.loads(text), file="relay.toml")
-        announced = {"vehicle_id": "Nemo-60", "image_id": "atr-12", "file_name": "atr-12.png",
-                     "size_bytes": len(content), "sha256": sha(content), "transfer_id": "",
-                     "format": "png", "capture_time_ms": 0, "targets": []}
-
-        async def main() -> None:
-            runtime = Runtime(prof, publisher_factory=lambda _rt: recorder)
-            await runtime.start()
-            try:
-                runtime._publish("ImageProduct", announced)
-                for _ in range(200):
-                    await asyncio.sleep(0.05)
-                    if any(t == "ImageProduct" and s["transfer_id"] for t, s in recorder.samples):
-                        break
-                await asyncio.sleep(0.3)
-            finally:
-                await runtime.stop()
-
-        asyncio.run(main())
-    products = {(s["vehicle_id"], s["image_id"]): s for t, s in recorder.samples
-                if t == "ImageProduct"}
+        products = fetch_announced(tmp_path, server.address, "Nemo-60", announced)
     assert list(products) == [("Nemo-60", "atr-12")]
     assert products[("Nemo-60", "atr-12")]["transfer_id"]
     (stored,) = (tmp_path / "images").rglob("atr-12.png")
@@ -164,37 +170,9 @@ def test_relay_fetches_an_image_announced_by_a_profile_mapping(
     ctx = TranslatorContext(now=0.0, timestamp_ms=0, relay_id=JausAddress(42, 1, 1),
                             vehicle=vehicle, catalogue=catalogue)
     (action,) = generic.on_message(message.name, message.fields, ctx)
-    port = free_udp_port()
-    recorder = Recorder()
+    assert action.topic == "ImageProduct"
     with udt.UdtBulkChannel.ImageServer(path.parent, vehicle_id="Survey-1") as server:
-        host, sport = server.address
-        text = f"""
-        [access]
-        any_operator = true
-        [bulk]
-        listen = "127.0.0.1:{port}"
-        dir = "{tmp_path / 'images'}"
-        [bulk.sources]
-        "Survey-1" = "{host}:{sport}"
-        """
-        prof = from_mapping(tomllib.loads(text), file="relay.toml")
-
-        async def main() -> None:
-            runtime = Runtime(prof, publisher_factory=lambda _rt: recorder)
-            await runtime.start()
-            try:
-                runtime._publish(action.topic, action.sample)
-                for _ in range(200):
-                    await asyncio.sleep(0.05)
-                    if any(t == "ImageProduct" and s["transfer_id"] for t, s in recorder.samples):
-                        break
-                await asyncio.sleep(0.3)
-            finally:
-                await runtime.stop()
-
-        asyncio.run(main())
-    products = {(s["vehicle_id"], s["image_id"]): s for t, s in recorder.samples
-                if t == "ImageProduct"}
+        products = fetch_announced(tmp_path, server.address, "Survey-1", action.sample)
     assert list(products) == [("Survey-1", "ReportSurveyImage-7")]  # one product, fetched
     assert products[("Survey-1", "ReportSurveyImage-7")]["transfer_id"]
     (stored,) = (tmp_path / "images").rglob("survey-7.png")
