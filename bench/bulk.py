@@ -48,6 +48,10 @@ the row before a second or two after they close).
 * ``resume``: a loopback transfer held to 80 Mbit/s is cut (receiver closes every
   connection); the figure is the time from the cut until the receiver has accepted the
   resumed transfer at its offset, with the sender's default backoff.
+
+With ``--repeat`` 2 or more, a summary follows the table: for each no-flags row (push,
+forwarder, pull) at each loss, how many of its runs reached the target (85 % of the link
+at 2 % loss, 95 % without) and the least, median and most.
 """
 
 from __future__ import annotations
@@ -145,6 +149,25 @@ def _where(counters: dict, started: float, ended: float) -> str:
             f"{line.idle(last - 1, last) * 1000:.0f}), done {(ended - last) * 1000:.0f} ms "
             f"after it; radio busy {line.busy_full + line.busy_small:.2f} s (control "
             f"{line.busy_small * 1000:.0f} ms{_most_control(line)})" + stalls)
+
+
+TARGETS = {0.02: 85.0, 0.0: 95.0}
+"""The targets of a no-flags transfer on the radio, by loss: % of the link."""
+
+
+def _summary(runs: dict[str, list[float]]) -> list[str]:
+    """One line per no-flags row run more than once: runs at the target, least, median,
+    most (``runs``: row name, ending in its loss -> % of the link of each run)."""
+    lines = []
+    for name, shares in runs.items():
+        if len(shares) < 2:
+            continue
+        target = TARGETS[0.0 if name.endswith(" 0%") else 0.02]
+        met = sum(share >= target for share in shares)
+        lines.append(f"{name}: {met} of {len(shares)} runs at {target:g} % or more; least "
+                     f"{min(shares):.1f}, median {statistics.median(shares):.1f}, most "
+                     f"{max(shares):.1f} %")
+    return lines
 
 
 def _of_link(mbps: float) -> str:
@@ -335,6 +358,10 @@ def main() -> None:
     runs = 2 if args.quick else 5
     radio_size = (8 << 20) if args.quick else (16 << 20)
     rows: list[tuple[str, str, str]] = []
+    runs: dict[str, list[float]] = {}  # no-flags row -> % of the link of each run
+
+    def ran(name: str, loss: float, mbps: float) -> None:
+        runs.setdefault(f"{name} at {loss:.0%}", []).append(mbps * 1e6 / RADIO_BPS * 100)
     with tempfile.TemporaryDirectory(prefix="bulk-bench-") as tmp:
         folder = Path(tmp)
         for size, label in ((1 << 20, "1 MiB"), (50 << 20, "50 MiB")):
@@ -358,6 +385,8 @@ def main() -> None:
                     time.sleep(args.gap)
                     good, c, history, where = radio(folder, size, loss, lanes, max_rate)
                     steps = _paced(history) if lanes == 0 else ""
+                    if kind == "adaptive":
+                        ran("push, no flags", loss, good)
                     rows.append((f"radio 10M/{loss:.0%}/20ms, {label}", f"{good:7.2f} Mbit/s",
                                  f"{_of_link(good)} of link; {size >> 20} MiB; proxy "
                                  f"lost {c.get('up_lost', 0)}+{c.get('down_lost', 0)}, "
@@ -367,6 +396,7 @@ def main() -> None:
             for _ in range(args.repeat if "forwarder" in only else 0):
                 time.sleep(args.gap)
                 good, where, history = forwarded(folder, radio_size, loss)
+                ran("forwarder", loss, good)
                 rows.append((f"radio 10M/{loss:.0%}/20ms, relay forwarder, adaptive",
                              f"{good:7.2f} Mbit/s", f"{_of_link(good)} of link; "
                              f"{radio_size >> 20} MiB, relay verified -> operator verified; "
@@ -375,6 +405,7 @@ def main() -> None:
             for _ in range(args.repeat if "pull" in only else 0):
                 time.sleep(args.gap)
                 good, where, history = pulled(folder, radio_size, loss)
+                ran("pull", loss, good)
                 rows.append((f"radio 10M/{loss:.0%}/20ms, relay pulls (serve-images)",
                              f"{good:7.2f} Mbit/s", f"{_of_link(good)} of link; "
                              f"{radio_size >> 20} MiB, announced -> relay verified; "
@@ -387,6 +418,8 @@ def main() -> None:
     print(f"{'measurement':<{width}}  {'figure':>14}  notes")
     for name, figure, note in rows:
         print(f"{name:<{width}}  {figure:>14}  {note}")
+    for line in _summary(runs):
+        print(line)
 
 
 if __name__ == "__main__":
