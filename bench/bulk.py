@@ -1,14 +1,16 @@
 """Bulk image transfer over UDT: goodput on loopback, through a lossy radio, and resume time.
 
 Run: ``.venv/bin/python bench/bulk.py [--quick] [--only ROWS] [--repeat N] [--stalls]
-[--gap S]``. Prints a table; asserts nothing. ``--only`` runs some rows (comma-separated:
-``loopback``, ``fixed`` = one connection and six lanes, ``adaptive`` = no flags,
+[--gap S] [--size MIB]``. Prints a table; asserts nothing. ``--only`` runs some rows
+(comma-separated: ``loopback``, ``fixed`` = one connection and six lanes, ``adaptive`` = no flags,
 ``budget``, ``forwarder``, ``pull``, ``resume``); ``--repeat`` runs each radio row that
 many times; ``--stalls`` adds to each radio row how often the bench's own process (the
 sender, the relay and the receiver all live in it) stood still 40 ms or more while the
 row's clock ran, from a thread that sleeps 5 ms at a time and notes when it wakes late;
 ``--gap S`` waits S seconds before each radio row (libudt tears down the connections of
-the row before a second or two after they close).
+the row before a second or two after they close); ``--size MIB`` sets the file size of
+the radio rows (16 MiB by default, 8 with ``--quick``): a transfer's start and end cost
+about the same whatever the size, so a bigger file shows the rate the lanes keep.
 
 * ``loopback``: files of 1 MiB and 50 MiB sent to a receiver on 127.0.0.1, timed from the
   first byte of the manifest to the receipt confirming the SHA-256 (the sender's hash is
@@ -347,6 +349,8 @@ def main() -> None:
                         help="say in each radio row how often this process stood still")
     parser.add_argument("--gap", type=float, default=0.0,
                         help="seconds to wait before each radio row (default 0)")
+    parser.add_argument("--size", type=int, default=0, metavar="MIB",
+                        help="file size of the radio rows in MiB (default 16, 8 with --quick)")
     args = parser.parse_args()
     global STALLS
     if args.stalls:
@@ -356,7 +360,9 @@ def main() -> None:
         parser.error(f"unknown rows: {', '.join(sorted(only - set(ROWS)))}")
     logging.basicConfig(level=logging.WARNING)
     runs = 2 if args.quick else 5
-    radio_size = (8 << 20) if args.quick else (16 << 20)
+    if args.size < 0:
+        parser.error("--size must be a positive number of MiB")
+    radio_size = args.size << 20 if args.size else (8 << 20) if args.quick else (16 << 20)
     rows: list[tuple[str, str, str]] = []
     runs: dict[str, list[float]] = {}  # no-flags row -> % of the link of each run
 
