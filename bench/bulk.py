@@ -157,16 +157,17 @@ TARGETS = {0.02: 85.0, 0.0: 95.0}
 """The targets of a no-flags transfer on the radio, by loss: % of the link."""
 
 
-def _summary(runs: dict[str, list[float]]) -> list[str]:
+def _summary(shares_of: dict[tuple[str, float], list[float]]) -> list[str]:
     """One line per no-flags row run more than once: runs at the target, least, median,
-    most (``runs``: row name, ending in its loss -> % of the link of each run)."""
+    most (``shares_of``: (row, loss) -> % of the link of each run)."""
     lines = []
-    for name, shares in runs.items():
+    for (row, loss), shares in shares_of.items():
         if len(shares) < 2:
             continue
-        target = TARGETS[0.0 if name.endswith(" 0%") else 0.02]
+        target = TARGETS[loss]
         met = sum(share >= target for share in shares)
-        lines.append(f"{name}: {met} of {len(shares)} runs at {target:g} % or more; least "
+        lines.append(f"{row} at {loss:.0%}: {met} of {len(shares)} runs at {target:g} % or "
+                     f"more; least "
                      f"{min(shares):.1f}, median {statistics.median(shares):.1f}, most "
                      f"{max(shares):.1f} %")
     return lines
@@ -364,10 +365,10 @@ def main() -> None:
         parser.error("--size must be a positive number of MiB")
     radio_size = args.size << 20 if args.size else (8 << 20) if args.quick else (16 << 20)
     rows: list[tuple[str, str, str]] = []
-    runs: dict[str, list[float]] = {}  # no-flags row -> % of the link of each run
+    shares_of: dict[tuple[str, float], list[float]] = {}  # (no-flags row, loss) -> % of link
 
-    def ran(name: str, loss: float, mbps: float) -> None:
-        runs.setdefault(f"{name} at {loss:.0%}", []).append(mbps * 1e6 / RADIO_BPS * 100)
+    def ran(row: str, loss: float, mbps: float) -> None:
+        shares_of.setdefault((row, loss), []).append(mbps * 1e6 / RADIO_BPS * 100)
     with tempfile.TemporaryDirectory(prefix="bulk-bench-") as tmp:
         folder = Path(tmp)
         for size, label in ((1 << 20, "1 MiB"), (50 << 20, "50 MiB")):
@@ -424,7 +425,7 @@ def main() -> None:
     print(f"{'measurement':<{width}}  {'figure':>14}  notes")
     for name, figure, note in rows:
         print(f"{name:<{width}}  {figure:>14}  {note}")
-    for line in _summary(runs):
+    for line in _summary(shares_of):
         print(line)
 
 
