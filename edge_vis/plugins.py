@@ -169,9 +169,10 @@ def load(group: str, name: str, expected_type: type | None = None) -> Any:
     if name in registered:
         target = registered[name]
     else:
-        claims = _installed(group).get(name, [])
+        installed = _installed(group)
+        claims = installed.get(name, [])
         if not claims:
-            raise PluginNotFoundError(_not_found_message(group, name))
+            raise PluginNotFoundError(_not_found_message(group, name, installed))
         if len(claims) > 1:
             who = ", ".join(f"{ep.value} from {dist or '?'}" for ep, dist, _ in claims)
             raise PluginConflictError(f"plugin {name!r} in {group} is declared twice: {who}")
@@ -224,8 +225,10 @@ def _load_error(group: str, name: str, cause: BaseException | None, detail: str)
     return err
 
 
-def _not_found_message(group: str, name: str) -> str:
-    names = sorted({*_installed(group), *_registry.get(group, {})})
+def _not_found_message(group: str, name: str, installed: dict[str, Any]) -> str:
+    """Why ``name`` was not found, from the very look-up that missed it: read again, the
+    metadata could have changed in between (a reinstall rewrites it) and list ``name`` itself."""
+    names = sorted({*installed, *_registry.get(group, {})})
     what = _WHAT.get(group, "plugin")
     if not names:
         return f"no {what} {name!r} in {group} (installed: none); {_INSTALL_HINT}"

@@ -289,3 +289,23 @@ def test_distribution_name_and_version_come_from_the_metadata_headers(site: Path
                     "# fakeplug-doc\n\nName: not-this\nVersion: 9.9\n" + "text\n" * 5000)
     [entry] = [e for e in plugins.entries(plugins.LINKS) if e.name == "docudp"]
     assert (entry.distribution, entry.version) == ("fakeplug-doc", "1.0")
+
+
+def test_a_miss_is_told_from_the_look_up_that_missed(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A reinstall rewriting the metadata mid-look-up (seen when a second venv installed the
+    same tree) once gave "no translator 'emergency' (installed: ..., emergency, ...); did you
+    mean 'emergency'?": the list was read again after the miss. Here the metadata read is
+    replaced (a stand-in for the rewrite) so that only its first read comes back empty."""
+    real = plugins.metadata.entry_points
+    reads: list[int] = []
+
+    def rewriting(**kwargs: object) -> object:
+        reads.append(1)
+        return real(group="no.such.group") if len(reads) == 1 else real(**kwargs)
+
+    monkeypatch.setattr(plugins.metadata, "entry_points", rewriting)
+    with pytest.raises(PluginNotFoundError) as info:
+        plugins.load(plugins.LINKS, "udp")
+    message = str(info.value)
+    assert "installed: none" in message and "did you mean" not in message
+    assert len(reads) == 1
