@@ -3,8 +3,8 @@
 Run: ``.venv/bin/python bench/bulk.py [--quick] [--only ROWS] [--repeat N] [--stalls]
 [--gap S] [--size MIB]``. Prints a table; asserts nothing. ``--only`` runs some rows
 (comma-separated: ``loopback``, ``fixed`` = one connection and six lanes, ``adaptive`` = no flags,
-``budget``, ``forwarder``, ``pull``, ``resume``); ``--repeat`` runs each radio row that
-many times; ``--stalls`` adds to each radio row how often the bench's own process (the
+``budget``, ``forwarder``, ``pull``, ``resume``, ``teardown``); ``--repeat`` runs each radio
+row that many times; ``--stalls`` adds to each radio row how often the bench's own process (the
 sender, the relay and the receiver all live in it) stood still 40 ms or more while the
 row's clock ran, from a thread that sleeps 5 ms at a time and notes when it wakes late;
 ``--gap S`` waits S seconds before each radio row (libudt tears down the connections of
@@ -47,6 +47,12 @@ about the same whatever the size, so a bigger file shows the rate the lanes keep
   says how much went to its commonest size of packet: on the data's way, UDT's 20-byte
   ACK2, which each lane's connection sends for every ACK its receiver sends (about every
   10 ms while data flows), so the more lanes send at once, the more of them.
+* ``teardown``: a 16-lane push on loopback, then for 3 s a socket call (looking a socket's
+  state up, behind libudt's global lock) every 2 ms; the figure is the longest one took.
+  libudt's garbage collector tears the closed connections down a second or two after
+  they closed, holding that lock, and every new connection (the next file's lanes) and
+  socket call waits behind it; it tears down one multiplexer (a UDP socket and two
+  threads) per local port, so the lanes of one transfer share one.
 * ``resume``: a loopback transfer held to 80 Mbit/s is cut (receiver closes every
   connection); the figure is the time from the cut until the receiver has accepted the
   resumed transfer at its offset, with the sender's default backoff.
@@ -336,7 +342,36 @@ def resume_time(folder: Path, runs: int) -> list[float]:
     return out
 
 
-ROWS = ("loopback", "fixed", "adaptive", "budget", "forwarder", "pull", "resume")
+def teardown(folder: Path, runs: int) -> list[float]:
+    """The longest a socket call waited (s) in the 3 s after each of ``runs`` 16-lane
+    pushes on loopback had closed its connections, one figure per run."""
+    from links.udt import udt_calls
+    from links.udt.transfer import udt4py
+
+    bare = udt4py().UDTSocket()  # any socket: looking one up takes libudt's global lock
+    out = []
+    try:
+        for run in range(runs):
+            path, manifest = _file(folder, 16 << 20, f"teardown{run}.bin")
+            with UdtBulkChannel.ImageService(folder / f"teardown{run}") as svc:
+                result = UdtBulkChannel.send_image(path, svc.address, manifest=manifest,
+                                                   lanes=16, give_up_after=60)
+                if not result.ok:
+                    raise SystemExit(f"transfer failed: {result.reason}")
+                closed, longest = time.monotonic(), 0.0
+                while time.monotonic() - closed < 3.0:
+                    before = time.monotonic()
+                    udt_calls.state(bare)
+                    longest = max(longest, time.monotonic() - before)
+                    time.sleep(0.002)
+            out.append(longest)
+            time.sleep(2.0)  # the service's own connections torn down before the next run
+    finally:
+        bare.close()
+    return out
+
+
+ROWS = ("loopback", "fixed", "adaptive", "budget", "forwarder", "pull", "resume", "teardown")
 
 
 def main() -> None:
@@ -421,6 +456,12 @@ def main() -> None:
         if delays:
             rows.append(("resume after a drop", f"{statistics.median(delays) * 1000:7.0f} ms",
                          f"median of {len(delays)}; max {max(delays) * 1000:.0f} ms"))
+        waits = teardown(folder, 3 if not args.quick else 1) if "teardown" in only else []
+        if waits:
+            rows.append(("socket call during a teardown", f"{max(waits) * 1000:7.0f} ms",
+                         "longest wait in the 3 s after a 16-lane push on loopback closed, "
+                         f"worst of {len(waits)} (each: "
+                         f"{', '.join(f'{w * 1000:.0f}' for w in waits)} ms)"))
     width = max(len(r[0]) for r in rows)
     print(f"{'measurement':<{width}}  {'figure':>14}  notes")
     for name, figure, note in rows:

@@ -187,6 +187,7 @@ class LossyProxy:
             if len(self._clients) >= MAX_CLIENTS:
                 self.counters["dropped_clients"] += 1
                 return None
+            self.counters["clients"] += 1  # addresses seen sending: one per flow
             back = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
             back.bind((self._front.getsockname()[0], 0))
             back.setblocking(False)

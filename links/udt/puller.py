@@ -29,6 +29,7 @@ from links.udt.transfer import (
     ConnectionLost,
     FetchOutcome,
     FetchRequest,
+    LocalPort,
     _close,
     _connect,
     _delivered,
@@ -140,8 +141,10 @@ class Puller:
         manifest = Manifest(wanted.image_id, wanted.vehicle_id, wanted.name, wanted.size or 0,
                             wanted.sha256, "", wanted.capture_time)
 
+        local = LocalPort()  # every lane's connections from one port: one teardown
+
         def make_lane(_progress: object, _pace: object, stop: threading.Event) -> _Lane:
-            return _Lane(self, wanted, rate)
+            return _Lane(self, wanted, rate, local)
 
         run = LaneRun(make_lane, self.lanes, None, self._stop, paced=False)
         failed, idle = run.send(Path(wanted.name), manifest, count)
@@ -152,7 +155,7 @@ class Puller:
             if verified:  # the last segment completed the file and it verified
                 closer = _Lane(self, wanted, rate)
                 return verified[0]  # type: ignore[no-any-return]
-            closer = idle.pop() if idle else _Lane(self, wanted, rate)
+            closer = idle.pop() if idle else _Lane(self, wanted, rate, local)
             return closer.fetch(whole)
         finally:
             for lane in idle:
@@ -172,8 +175,10 @@ class _Lane:
     """One connection to an image server, asking for segment after segment: a lane of a
     :class:`LaneRun` (its ``send_file`` fetches the segment its manifest names)."""
 
-    def __init__(self, puller: Puller, wanted: Wanted, rate: int | None) -> None:
+    def __init__(self, puller: Puller, wanted: Wanted, rate: int | None,
+                 local: LocalPort | None = None) -> None:
         self.puller = puller
+        self.local = local
         self.wanted = wanted
         self.rate = rate
         self.on_round_trip: Callable[[float], None] | None = None
@@ -188,7 +193,8 @@ class _Lane:
         host, port = self.wanted.source
         if self._sock is None:
             try:
-                self._sock = _connect(self.wanted.source, self.puller.connect_timeout, None)
+                self._sock = _connect(self.wanted.source, self.puller.connect_timeout, None,
+                                      self.local)
             except ConnectionLost as exc:
                 return FetchOutcome("lost", str(exc))
             receiver = self.puller.receiver

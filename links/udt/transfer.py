@@ -103,13 +103,48 @@ def _set(sock: Any, options: Mapping[str, int]) -> bool:
     return all(udt_calls.set_option(sock, name, value) for name, value in options.items())
 
 
-def _connect(address: tuple[str, int], timeout: float, max_rate_bps: int | None) -> Any:
-    """Open a UDT connection within ``timeout`` seconds (UDT's own wait is a fixed 3 s).
-    The state and options go through :mod:`links.udt.udt_calls`: read through udt4py,
-    a new lane's state waited with the GIL held while libudt tore down the lanes of the
-    file before, and the whole relay stood still."""
+class LocalPort:
+    """One local UDP port for the connections of one transfer's lanes.
+
+    libudt gives a connection bound to a port of its own a multiplexer of its own (a UDP
+    socket and two threads), and its garbage collector tears each one down a second or
+    two after the connection closed, holding the library's global lock: 16 lanes' took
+    about 100 ms, and the next file's connections (and every socket call) waited behind
+    it. Connections sharing a port share one multiplexer (as those a listener accepts
+    do), torn down once. Thread-safe: lanes connect side by side.
+    """
+
+    def __init__(self) -> None:
+        self.port = 0  # 0 until the first lane's bind picked one
+        self._lock = threading.Lock()
+
+    def bind(self, make: Callable[[], Any]) -> Any:
+        """A socket from ``make`` (options set: some cannot be once bound) bound to the
+        shared port (the first: to one the system picks); bound to a new port when the
+        old one is gone (every lane on it closed and torn down, and the port taken since)."""
+        with self._lock:
+            sock = make()
+            if self.port and udt_calls.bind_any(sock, self.port) is not None:
+                return sock
+            if self.port:  # a refused bind leaves the socket in no known state
+                sock.close()
+                sock = make()
+            port = udt_calls.bind_any(sock, 0)
+            if port is None:
+                sock.close()
+                raise ConnectionLost("libudt refused to bind a new socket")
+            self.port = port
+            return sock
+
+
+def _connect(address: tuple[str, int], timeout: float, max_rate_bps: int | None,
+             local: LocalPort | None = None) -> Any:
+    """Open a UDT connection within ``timeout`` seconds (UDT's own wait is a fixed 3 s),
+    from ``local``'s port when given. The state and options go through
+    :mod:`links.udt.udt_calls`: read through udt4py, a new lane's state waited with the
+    GIL held while libudt tore down the lanes of the file before, and the whole relay
+    stood still."""
     udt = udt4py()
-    sock = udt.UDTSocket()
     # A sender closes only after the receipt or on giving up a dead connection; either
     # way nothing queued is worth waiting for (UDT would linger up to 180 s by default).
     options = {"UDT_LINGER": 0, "UDT_RCVSYN": False}
@@ -118,17 +153,21 @@ def _connect(address: tuple[str, int], timeout: float, max_rate_bps: int | None)
         # Keep about two seconds of data in flight, so progress means "delivered" and a
         # slow link does not hold megabytes that a reconnection would send again.
         options["UDT_SNDBUF"] = int(min(SNDBUF_MAX, max(SNDBUF_MIN, max_rate_bps / 8 * 2)))
-    try:
+
+    def make() -> Any:
+        sock = udt.UDTSocket()
         if not _set(sock, options):
+            sock.close()
             raise ConnectionLost(f"libudt refused the options of a new socket to "
                                  f"{address[0]}:{address[1]}")
+        return sock
+
+    sock = make() if local is None else local.bind(make)
+    try:
         sock.connect(address)
     except udt.UDTException as exc:
         sock.close()
         raise ConnectionLost(f"connect to {address[0]}:{address[1]}: {exc}") from exc
-    except ConnectionLost:
-        sock.close()
-        raise
     status = udt.UDTSocket.Status
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -298,6 +337,7 @@ class BulkSender:
         lanes: int = 1,
         keys: Mapping[str, bytes] | None = None,
         pace: Callable[[int], float] | None = None,
+        local_port: LocalPort | None = None,
     ) -> None:
         if not 0 <= lanes <= MAX_LANES:
             raise ValueError(f"lanes must be 0 (adapt) or 1..{MAX_LANES}")
@@ -310,6 +350,9 @@ class BulkSender:
         self.on_round_trip: Callable[[float], None] | None = None
         self.keys = keys  # vehicle id -> pre-shared key, to answer a receiver's challenge
         self.address = address
+        #: the port this sender's connections leave from, shared with the other lanes
+        #: of a transfer (None: one the system picks for each connection)
+        self.local_port = local_port
         self.max_rate_bps = max_rate_bps
         self.backoff = backoff or Backoff()
         self.connect_timeout = connect_timeout
@@ -401,6 +444,8 @@ class BulkSender:
         return self._send_one(Path(path), manifest)
 
     def _send_lanes(self, path: Path, manifest: Manifest, count: int) -> TransferResult:
+        local = LocalPort()  # every lane's connections from one port: one teardown
+
         def make_sender(progress: ProgressFn, pace: Callable[[int], float] | None,
                         stop: threading.Event) -> BulkSender:
             return BulkSender(
@@ -410,7 +455,7 @@ class BulkSender:
                 connect_timeout=self.connect_timeout, idle_timeout=self.idle_timeout,
                 give_up_after=self.give_up_after, retry_refusals=self.retry_refusals,
                 stop=stop, progress=progress, stall_timeout=self.stall_timeout,
-                keys=self.keys, pace=pace)
+                keys=self.keys, pace=pace, local_port=local)
 
         run = LaneRun(make_sender, self.lanes, self.max_rate_bps, self.stop, self.progress)
         failed, idle = run.send(path, manifest, count)
@@ -489,7 +534,8 @@ class BulkSender:
             if udt_calls.state(sock) == udt4py().UDTSocket.Status.CONNECTED:
                 return sock, conn, True
             _close(sock)
-        sock = _connect(self.address, self.connect_timeout, self.max_rate_bps)
+        sock = _connect(self.address, self.connect_timeout, self.max_rate_bps,
+                        self.local_port)
         return sock, SenderConnection(idle_timeout=self.idle_timeout, keys=self.keys), False
 
     def close(self) -> None:
@@ -526,7 +572,8 @@ class BulkSender:
                     raise
                 # The kept connection died while idle (receiver restarted): a fresh one.
                 _close(sock)
-                sock = _connect(self.address, self.connect_timeout, self.max_rate_bps)
+                sock = _connect(self.address, self.connect_timeout, self.max_rate_bps,
+                        self.local_port)
                 conn = SenderConnection(idle_timeout=self.idle_timeout, keys=self.keys)
                 self._live, self._live_conn = sock, conn
                 self._cap_on = None

@@ -22,6 +22,7 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import functools
+import socket
 from typing import Any
 
 OPTIONS = {name: number for number, name in enumerate((
@@ -44,6 +45,10 @@ _SYMBOLS = {
     "set": ("_ZN3UDT10setsockoptEii6UDTOptPKvi",
             [ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_void_p, ctypes.c_int],
             ctypes.c_int),
+    "bind": ("_ZN3UDT4bindEiPK8sockaddri", [ctypes.c_int, ctypes.c_void_p, ctypes.c_int],
+             ctypes.c_int),
+    "name": ("_ZN3UDT11getsocknameEiP8sockaddrPi",
+             [ctypes.c_int, ctypes.c_void_p, ctypes.POINTER(ctypes.c_int)], ctypes.c_int),
 }
 """The calls made here: kind -> (mangled symbol in libudt, argument types, result type)."""
 
@@ -80,6 +85,13 @@ def _fn(kind: str) -> Any:
 
 CLOSED = 8
 """``UDTSTATUS`` of a closed socket (udt4py's ``UDTSocket.Status.CLOSED``)."""
+
+
+class _SockaddrIn(ctypes.Structure):
+    """``struct sockaddr_in`` (the port in network byte order)."""
+
+    _fields_ = [("family", ctypes.c_uint16), ("port", ctypes.c_uint8 * 2),
+                ("address", ctypes.c_uint8 * 4), ("zero", ctypes.c_uint8 * 8)]
 
 
 def _handle(sock: Any) -> int | None:
@@ -124,3 +136,25 @@ def set_option(sock: Any, name: str, value: int) -> bool:
         return False
     raw = ctypes.c_uint64(int(value) & 0xFFFFFFFFFFFFFFFF)
     return bool(fn(handle, 0, OPTIONS[name], ctypes.byref(raw), 8) == 0)
+
+
+def bind_any(sock: Any, port: int) -> int | None:
+    """Bind the socket to ``port`` (0: one the system picks) on every IPv4 address and
+    return the port it got; None when libudt refuses (the port taken, a closed socket).
+    Binding sets up the socket's multiplexer behind libudt's global lock."""
+    bind, name, handle = _fn("bind"), _fn("name"), _handle(sock)
+    if bind is None or name is None:
+        try:
+            sock.bind(("0.0.0.0", port))
+            return int(sock.address[1])
+        except Exception:  # udt4py's UDTException, or TypeError for a closed socket
+            return None
+    if handle is None:
+        return None
+    addr = _SockaddrIn(socket.AF_INET, (ctypes.c_uint8 * 2)(*port.to_bytes(2, "big")))
+    if bind(handle, ctypes.byref(addr), ctypes.sizeof(addr)) != 0:
+        return None
+    got, size = _SockaddrIn(), ctypes.c_int(ctypes.sizeof(_SockaddrIn))
+    if name(handle, ctypes.byref(got), ctypes.byref(size)) != 0:
+        return None
+    return int.from_bytes(bytes(got.port), "big")

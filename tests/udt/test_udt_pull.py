@@ -228,6 +228,8 @@ def test_a_large_image_is_fetched_on_parallel_lanes(tmp_path: Path, make_file, c
               if r.getMessage().startswith("served atr-21.png")]
     assert [m for m in served if m.endswith("stored; SHA-256 verified")]
     assert not [m for m in served if "segment" not in m]
+    # every lane's connection from one port of the relay's (one multiplexer in libudt)
+    assert len({m.split(" to ")[1].split(": ")[0] for m in served}) == 1
     # the course of the rate the image server paced the lanes at, for the bench
     assert server.rate_history[0][1:] == (6e6, "startup")
 

@@ -266,6 +266,35 @@ def test_a_lost_last_packet_is_reported_at_once_not_waited_for(
     assert (tmp_path / "ops" / "uuv1" / "second.png").read_bytes() == content
 
 
+def test_a_lane_whose_shared_port_was_taken_leaves_from_a_new_one():
+    """A transfer's lanes connect from one port; once every lane on it had closed and
+    libudt had let the port go, something else may hold it: the next lane binds a new
+    port and connects, and the lanes after it share that one."""
+    import socket
+
+    from links.udt.transfer import LocalPort, _close, _connect, listen
+
+    server = listen(("127.0.0.1", 0), linger=0)
+    accepted: list[Any] = []
+    threading.Thread(target=lambda: [accepted.append(server.accept()) for _ in range(2)],
+                     daemon=True).start()
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as squatter:
+        squatter.bind(("0.0.0.0", 0))
+        taken = squatter.getsockname()[1]
+        local = LocalPort()
+        local.port = taken
+        first = _connect(server.address, 2.0, None, local)
+        second = _connect(server.address, 2.0, None, local)
+    try:
+        assert local.port not in (0, taken)
+        assert first.address[1] == second.address[1] == local.port
+        wait_for(lambda: len(accepted) == 2, 5, "both connections accepted")
+        assert {peer[1] for _, peer in accepted} == {local.port}
+    finally:
+        for sock in (first, second, *(s for s, _ in accepted), server):
+            _close(sock)
+
+
 def test_a_lane_closed_under_the_coordinators_look_reads_as_nothing_pending():
     """The lanes' coordinator reads each lane's socket while the lane's own thread may be
     closing it after a drop; udt4py then raises TypeError, which ended the whole
@@ -313,6 +342,9 @@ def test_lanes_over_a_lossy_link_survive_a_drop_and_verify(tmp_path: Path, make_
     # every lane came back on a new connection (a lane between two segments at the cut
     # reconnects on its next one, which its attempts do not count)
     assert ops.receiver.counters["connections"] >= 8
+    # ... all from one port, as the lanes began: libudt tears down one multiplexer for
+    # the transfer, not one per connection (LocalPort)
+    assert proxy.counters["clients"] == 1
     assert sum(1 for o in result.resumed_from if o) >= 2
     assert (tmp_path / "ops" / "uuv1" / "img.png").read_bytes() == content
 
