@@ -81,7 +81,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from lossy_proxy import separate_process
 
 from edge_vis.tools.lossy_udp import Timeline
-from links.udt import UdtBulkChannel
+from links.udt import UdtBulkChannel, udt_calls
+from links.udt.transfer import udt4py
 
 RADIO_BPS = 10e6
 """The emulated radio's rate."""
@@ -345,9 +346,6 @@ def resume_time(folder: Path, runs: int) -> list[float]:
 def teardown(folder: Path, runs: int) -> list[float]:
     """The longest a socket call waited (s) in the 3 s after each of ``runs`` 16-lane
     pushes on loopback had closed its connections, one figure per run."""
-    from links.udt import udt_calls
-    from links.udt.transfer import udt4py
-
     bare = udt4py().UDTSocket()  # any socket: looking one up takes libudt's global lock
     out = []
     try:

@@ -26,8 +26,8 @@
 #
 # Then a second pass on the DDS Security binding: `scripts/setup.sh --secure` (Debian's
 # Cyclone DDS 0.10.2 with its security plugins, .venv-secure; set up in the background
-# beside ruff and mypy, before the first pass) and pytest on the tests where that binding behaves
-# differently (SECURE_TESTS below): the DDS bridge and its conversions on 0.10.2
+# beside ruff and mypy, before the first pass) and pytest on the tests where that
+# binding behaves differently (SECURE_TESTS below): the DDS bridge and its conversions on 0.10.2
 # (tests/dds, with the secured relays and operator stations in separate processes of
 # tests/dds/test_dds_security.py, skipped on the PyPI binding), the security tooling and
 # operator list, one relay end to end on DDS, and the image receiver on DDS (the one

@@ -124,10 +124,10 @@ class LocalPort:
         old one is gone (every lane on it closed and torn down, and the port taken since)."""
         with self._lock:
             sock = make()
-            if self.port and udt_calls.bind_any(sock, self.port) is not None:
-                return sock
-            if self.port:  # a refused bind leaves the socket in no known state
-                sock.close()
+            if self.port:
+                if udt_calls.bind_any(sock, self.port) is not None:
+                    return sock
+                sock.close()  # a refused bind leaves the socket in no known state
                 sock = make()
             port = udt_calls.bind_any(sock, 0)
             if port is None:
@@ -573,7 +573,7 @@ class BulkSender:
                 # The kept connection died while idle (receiver restarted): a fresh one.
                 _close(sock)
                 sock = _connect(self.address, self.connect_timeout, self.max_rate_bps,
-                        self.local_port)
+                                self.local_port)
                 conn = SenderConnection(idle_timeout=self.idle_timeout, keys=self.keys)
                 self._live, self._live_conn = sock, conn
                 self._cap_on = None
