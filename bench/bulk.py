@@ -43,7 +43,9 @@ about the same whatever the size, so a bigger file shows the rate the lanes keep
   sat idle while the data flowed (and of that, in the data's first and last second), how
   long after the last data packet the clock stopped, and the link's busy time (data
   packets, and control packets: UDT's ACK2 and NAK, manifests). A row's time is the sum
-  of the first, the second, the third and the busy time. Of the control time, the row
+  of the first, the second, the third and the busy time; then how many segments the
+  lanes sent again on a fresh lane (one that stalled, or whose lane UDT held far below
+  its share at the end), when any. Of the control time, the row
   says how much went to its commonest size of packet: on the data's way, UDT's 20-byte
   ACK2, which each lane's connection sends for every ACK its receiver sends (about every
   10 ms while data flows), so the more lanes send at once, the more of them.
@@ -143,9 +145,29 @@ STALLS: Stalls | None = None
 """The watchdog of ``--stalls``, or None."""
 
 
+class SentAgain(logging.Handler):
+    """When the lanes sent a segment again on a fresh lane (their log says so)."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.INFO)
+        self.times: list[float] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if "sending it again" in record.getMessage():
+            self.times.append(time.monotonic())
+
+    def between(self, started: float, ended: float) -> str:
+        n = sum(started <= t <= ended for t in self.times)
+        return f"; {n} segment{'s' * (n != 1)} sent again on a fresh lane" if n else ""
+
+
+SENT_AGAIN = SentAgain()
+
+
 def _where(counters: dict, started: float, ended: float) -> str:
     """Where a radio row's time went (see the module doc), from the proxy's timelines."""
-    stalls = STALLS.between(started, ended) if STALLS is not None else ""
+    stalls = SENT_AGAIN.between(started, ended) + (
+        STALLS.between(started, ended) if STALLS is not None else "")
     lines = [counters.get(f"{d}_timeline") for d in ("up", "down")]
     line = max((t for t in lines if t is not None and t.first_full is not None),
                key=lambda t: t.busy_full, default=None)
@@ -393,6 +415,11 @@ def main() -> None:
     if only - set(ROWS):
         parser.error(f"unknown rows: {', '.join(sorted(only - set(ROWS)))}")
     logging.basicConfig(level=logging.WARNING)
+    for handler in logging.getLogger().handlers:
+        handler.setLevel(logging.WARNING)  # the lanes' INFO below is counted, not printed
+    lanes_log = logging.getLogger("links.udt.lane_run")
+    lanes_log.setLevel(logging.INFO)
+    lanes_log.addHandler(SENT_AGAIN)
     runs = 2 if args.quick else 5
     if args.size < 0:
         parser.error("--size must be a positive number of MiB")
