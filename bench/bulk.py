@@ -44,11 +44,11 @@ about the same whatever the size, so a bigger file shows the rate the lanes keep
   long after the last data packet the clock stopped, and the link's busy time (data
   packets, and control packets: UDT's ACK2 and NAK, manifests). A row's time is the sum
   of the first, the second, the third and the busy time; then how many segments the
-  lanes sent again on a fresh lane (one that stalled, or whose lane UDT held far below
-  its share at the end), when any. Of the control time, the row
-  says how much went to its commonest size of packet: on the data's way, UDT's 20-byte
-  ACK2, which each lane's connection sends for every ACK its receiver sends (about every
-  10 ms while data flows), so the more lanes send at once, the more of them.
+  lanes sent again on a fresh lane (one that stalled at the end), when any. Of the
+  control time, the row says how much went to its commonest size of packet: on the
+  data's way, UDT's 20-byte ACK2, which each lane's connection sends for every ACK its
+  receiver sends (about every 10 ms while data flows), so the more lanes send at once,
+  the more of them.
 * ``teardown``: a 16-lane push on loopback, then for 3 s a socket call (looking a socket's
   state up, behind libudt's global lock) every 2 ms; the figure is the longest one took.
   libudt's garbage collector tears the closed connections down a second or two after
@@ -166,20 +166,20 @@ SENT_AGAIN = SentAgain()
 
 def _where(counters: dict, started: float, ended: float) -> str:
     """Where a radio row's time went (see the module doc), from the proxy's timelines."""
-    stalls = SENT_AGAIN.between(started, ended) + (
+    notes = SENT_AGAIN.between(started, ended) + (
         STALLS.between(started, ended) if STALLS is not None else "")
     lines = [counters.get(f"{d}_timeline") for d in ("up", "down")]
     line = max((t for t in lines if t is not None and t.first_full is not None),
                key=lambda t: t.busy_full, default=None)
     if line is None:
-        return stalls.lstrip("; ")
+        return notes.lstrip("; ")
     first, last = line.first_full, line.last_full
     return (f"data on the radio {(first - started) * 1000:.0f} ms after the start, idle "
             f"{line.idle(first, last) * 1000:.0f} ms while it flowed (first s "
             f"{line.idle(first, first + 1) * 1000:.0f}, last s "
             f"{line.idle(last - 1, last) * 1000:.0f}), done {(ended - last) * 1000:.0f} ms "
             f"after it; radio busy {line.busy_full + line.busy_small:.2f} s (control "
-            f"{line.busy_small * 1000:.0f} ms{_most_control(line)})" + stalls)
+            f"{line.busy_small * 1000:.0f} ms{_most_control(line)})" + notes)
 
 
 TARGETS = {0.02: 85.0, 0.0: 95.0}
