@@ -59,6 +59,9 @@ about the same whatever the size, so a bigger file shows the rate the lanes keep
   connection); the figure is the time from the cut until the receiver has accepted the
   resumed transfer at its offset, with the sender's default backoff.
 
+``EDGE_VIS_UDT_CC=off`` in the environment runs the lanes on libudt's own congestion
+control instead of ``links/udt/udt_cc.cpp``'s (:mod:`links.udt.udt_cc`), for comparison.
+
 With ``--repeat`` 2 or more, a summary follows the table: for each no-flags row (push,
 forwarder, pull) at each loss, how many of its runs reached the target (85 % of the link
 at 2 % loss, 95 % without) and the least, median and most.

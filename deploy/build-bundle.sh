@@ -15,7 +15,8 @@
 # extension linked against the system libudt: the relay needs Debian's libudt0). The
 # cyclonedds command-line tools' dependencies (rich-click, ...) are left out: the relay
 # only uses the library. Wheels come from the build machine's cache or PyPI; udt4py is
-# built from source against libudt-dev (see scripts/setup.sh) when no wheel is cached.
+# built from source against libudt-dev (see scripts/setup.sh) when no wheel is cached, and
+# with it the lanes' congestion control (links/udt/udt_cc.cpp) beside its loader.
 #
 # DDS Security: with PYTHON=.venv-secure/bin/python (scripts/setup.sh --secure) the bundle
 # carries that environment's cyclonedds binding, built again from source against Debian's
@@ -109,6 +110,17 @@ fi
 pip install -q --no-deps --no-index --find-links "$wheelhouse" --target "$work/site" \
     edge-vis "${deps[@]}"
 rm -rf "$work/site/bin"
+# the lanes' congestion control (links/udt/udt_cc.cpp), beside the module that loads it;
+# without it the relay's lanes keep libudt's own control (slower on lossy radios)
+if [[ -d "$work/site/udt4py" ]] || compgen -G "$work/site/udt4py*.so" >/dev/null; then
+    cxx=$(command -v c++ || command -v g++ || true)
+    if [[ -n $cxx ]] && "$cxx" -std=c++17 -O2 -shared -fPIC \
+            -o "$work/site/links/udt/libedge_udt_cc.so" links/udt/udt_cc.cpp -ludt; then
+        say "built the lanes' congestion control into the bundle"
+    else
+        say "no C++ compiler or libudt-dev: the bundle's lanes keep libudt's own congestion control"
+    fi
+fi
 if [[ -n $secure ]] && ! "$PYTHON" -S - "$work/site" <<'EOF'
 import sys
 sys.path.insert(0, sys.argv[1])

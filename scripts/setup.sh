@@ -154,6 +154,22 @@ if ! "$VPY" -c "import udt4py" >/dev/null 2>&1; then
     "$VPY" -c "import udt4py" >/dev/null 2>&1 || die "udt4py installed but does not import"
 fi
 
+# ---- 3a. the lanes' congestion control (links/udt/udt_cc.cpp) -----------------------------
+# A UDT congestion control class of ours, which the adaptive lanes switch to pacing by
+# their rate cap alone; built against the system libudt into the venv, again whenever the
+# source is newer. links/udt/udt_cc.py falls back to libudt's own control without it.
+CC_SRC="$ROOT/links/udt/udt_cc.cpp"
+CC_LIB="$VENV/lib/edge-vis/libedge_udt_cc.so"
+if [[ ! -f "$CC_LIB" || "$CC_SRC" -nt "$CC_LIB" ]]; then
+    CXX="$(command -v c++ || command -v g++)"
+    mkdir -p "$(dirname "$CC_LIB")"
+    run "building $CC_LIB" "$CXX" -std=c++17 -O2 -Wall -shared -fPIC -o "$CC_LIB.tmp" \
+        "$CC_SRC" -ludt
+    mv -f "$CC_LIB.tmp" "$CC_LIB"
+fi
+"$VPY" -c "import ctypes, sys; ctypes.CDLL(sys.argv[1])" "$CC_LIB" >/dev/null 2>&1 \
+    || die "$CC_LIB was built but does not load"
+
 # ---- 3b. (--secure) the Cyclone DDS binding built against Debian's library ---------------
 secure_binding_ok() {  # the 0.10.2 binding, loading Debian's libddsc (not a bundled one)
     "$VPY" - "$SECURE_CYCLONE" <<'EOF' >/dev/null 2>&1

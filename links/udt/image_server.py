@@ -13,7 +13,8 @@ sends the data, so it paces them: the lanes one fetcher opened for one file are 
 together at one rate (:class:`~links.udt.lane_run.SharedRate`, the mechanism of
 ``send-image``'s adaptive lanes), from the round trips of its manifests to their answers
 and the bytes the fetcher acknowledged; the rate a segment's FETCH carries is the budget
-of all lanes of that fetch together.
+of all lanes of that fetch together. A connection serving a segment keeps to its share
+alone (:mod:`links.udt.udt_cc`); one serving a whole file keeps UDT's own control.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from links.udt import udt_cc
 from links.udt.image_service import manifest_for_file
 from links.udt.lane_run import TICK, SharedRate
 from links.udt.protocol import (
@@ -137,7 +139,8 @@ class ImageServer(UdtService):
     _conn_thread = "udt-serve"
 
     def start(self) -> ImageServer:
-        self._listener = listen(self._bind, linger=0, max_rate_bps=self.max_rate_bps or 0)
+        self._listener = listen(self._bind, linger=0, max_rate_bps=self.max_rate_bps or 0,
+                                switchable=True)
         for target, name in ((self._accept_loop, "udt-serve-accept"),
                              (self._pace_loop, "udt-serve-pace"),
                              (self._warm, "udt-serve-warm")):
@@ -299,6 +302,8 @@ class ImageServer(UdtService):
                 sender.on_round_trip, sender.pace = self._pacing(fetch.rate)
         elif rate:  # the fetcher's share of its link budget, never above our own cap
             sender.cap(rate)
+        # a lane's share is its whole rate: UDT's own loss reaction would hold it below
+        udt_cc.pace(sock, fetch is not None)
         result = None
         try:
             result = sender.serve(sock, conn, self.directory / event.name, m)

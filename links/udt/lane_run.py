@@ -6,15 +6,16 @@ all lanes of an adaptive transfer keep to together); this module runs them: each
 a :class:`~links.udt.transfer.BulkSender` on its own connection that sends segment after
 segment; a coordinating loop looks at the lanes every ``TICK`` seconds (and at once when
 a lane finishes a segment), feeds the bytes the receiver acknowledged and the lanes'
-smoothed round trips to the rate probe, gives each lane with data still to leave an
-equal share of the rate (``UDT_MAXBW``; a lane waiting for an answer, for
-acknowledgements of data already sent, or for a receipt leaves its share to the
-others, and one that UDT's own loss reaction holds below its share leaves what it cannot
+smoothed round trips and packets sent again to the rate probe, gives each lane with data
+still to leave an equal share of the rate (``UDT_MAXBW``, the lane's whole pace where
+:mod:`links.udt.udt_cc` is built; a lane waiting for an answer, for acknowledgements of
+data already sent, or for a receipt leaves its share to the others, and one that UDT's
+own loss reaction holds below its share, without that library, leaves what it cannot
 send; once every segment is handed out, a share in proportion to what the lane has
 still to deliver, so that the last lanes finish together), starts lanes one per tick
-(each opens with a window of packets sent before any pacing applies) and, once every
-segment is handed out, takes a stalled one over on an idle lane (the receiver hands the
-segment to the newest connection and resumes it at the bytes it holds).
+and, once every segment is handed out, takes a stalled one over on an idle lane (the
+receiver hands the segment to the newest connection and resumes it at the bytes it
+holds).
 
 :class:`SharedRate` is the pacing itself, shared with the image server, whose answers to
 a fetcher's lanes are paced the same way from the side that sends the data.
@@ -62,6 +63,8 @@ class SharedRate:
     budget_bps: int | None = None
     control: RateProbe = field(init=False)
     pace: Pace | None = field(init=False)
+    #: connection -> (data packets sent, of them sent again) when last looked at
+    _counted: dict[Any, tuple[int, int]] = field(default_factory=dict, init=False)
 
     def __post_init__(self) -> None:
         self.control = RateProbe(budget_bps=self.budget_bps)
@@ -71,11 +74,28 @@ class SharedRate:
         """The share of a lane starting now, ``lanes`` lanes running with it."""
         return lane_share(self.control.rate_bps, lanes)
 
+    def _count(self, senders: Sequence[Any]) -> None:
+        """Feed the probe the data packets the lanes sent, and sent again, since the last
+        look (each connection's own totals: a lane's reconnection starts again at 0)."""
+        sent = resent = 0
+        for sender in senders:
+            seen = sender.packets()
+            if seen is None:
+                continue
+            conn, total, again = seen
+            before = self._counted.get(conn, (0, 0))
+            sent += max(0, total - before[0])
+            resent += max(0, again - before[1])
+            self._counted[conn] = (total, again)
+        if sent:
+            self.control.sent(sent, resent)
+
     def caps(self, now: float, acknowledged: int, lanes: Iterable[K], sending: Mapping[K, Any],
              left: Sequence[int] | None = None) -> dict[K, float]:
-        """Feed the bytes acknowledged so far and the smoothed round trips of the lanes
-        with data on its way (``sending``: lane -> its
-        :class:`~links.udt.transfer.BulkSender`); return each of ``lanes``' cap (bit/s).
+        """Feed the bytes acknowledged so far, and the smoothed round trips and the
+        packets sent (and sent again) of the lanes with data on its way (``sending``: lane
+        -> its :class:`~links.udt.transfer.BulkSender`); return each of ``lanes``' cap
+        (bit/s).
         The lanes share the radio's queue: the least of their round trips says it. A lane
         not sending gets an even share of the rate; a sending one its share with what
         lanes held back by UDT's loss reaction leave
@@ -86,6 +106,7 @@ class SharedRate:
         trips = [trip for sender in senders if (trip := sender.round_trip())]
         if trips:
             self.control.smoothed(min(trips))
+        self._count(senders)
         rate = self.control.sample(now, acknowledged)
         # with a budget, its pacer holds the total
         headroom = HEADROOM if self.pace is not None and rate >= self.pace.rate_bps else 1.0

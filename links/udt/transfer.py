@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any, Self
 
 from edge_vis.errors import LinkError
-from links.udt import udt_calls, udt_stats
+from links.udt import udt_calls, udt_cc, udt_stats
 from links.udt.lane_plan import segments_for
 from links.udt.lane_run import LaneRun
 from links.udt.protocol import (
@@ -138,9 +138,11 @@ class LocalPort:
 
 
 def _connect(address: tuple[str, int], timeout: float, max_rate_bps: int | None,
-             local: LocalPort | None = None) -> Any:
+             local: LocalPort | None = None, paced: bool = False) -> Any:
     """Open a UDT connection within ``timeout`` seconds (UDT's own wait is a fixed 3 s),
-    from ``local``'s port when given. The state and options go through
+    from ``local``'s port when given; ``paced``: its rate is its ``UDT_MAXBW`` alone, set
+    by the lanes' coordinator (:mod:`links.udt.udt_cc`; UDT's own control where that
+    library is missing). The state and options go through
     :mod:`links.udt.udt_calls`: read through udt4py, a new lane's state waited with the
     GIL held while libudt tore down the lanes of the file before, and the whole relay
     stood still."""
@@ -156,6 +158,8 @@ def _connect(address: tuple[str, int], timeout: float, max_rate_bps: int | None,
 
     def make() -> Any:
         sock = udt.UDTSocket()
+        if paced:
+            udt_cc.install(sock, paced=True)
         if not _set(sock, options):
             sock.close()
             raise ConnectionLost(f"libudt refused the options of a new socket to "
@@ -217,11 +221,16 @@ def _delivered(sock: Any, timeout: float) -> None:
         time.sleep(0.01)
 
 
-def listen(bind: tuple[str, int], *, linger: int, max_rate_bps: int = 0) -> Any:
-    """A UDT socket listening on ``bind``; ``linger`` and the rate cap (bit/s, 0 = none)
-    are inherited by the connections it accepts. :class:`LinkError` names the address."""
+def listen(bind: tuple[str, int], *, linger: int, max_rate_bps: int = 0,
+           switchable: bool = False) -> Any:
+    """A UDT socket listening on ``bind``; ``linger``, the rate cap (bit/s, 0 = none) and,
+    with ``switchable``, a congestion control that can be told to pace a connection by its
+    cap alone (:func:`links.udt.udt_cc.pace`) are inherited by the connections it accepts.
+    :class:`LinkError` names the address."""
     udt = udt4py()
     sock = udt.UDTSocket()
+    if switchable:
+        udt_cc.install(sock)
     try:
         sock.UDT_REUSEADDR = True
         sock.UDT_LINGER = linger
@@ -338,6 +347,7 @@ class BulkSender:
         keys: Mapping[str, bytes] | None = None,
         pace: Callable[[int], float] | None = None,
         local_port: LocalPort | None = None,
+        capped: bool = False,
     ) -> None:
         if not 0 <= lanes <= MAX_LANES:
             raise ValueError(f"lanes must be 0 (adapt) or 1..{MAX_LANES}")
@@ -353,6 +363,9 @@ class BulkSender:
         #: the port this sender's connections leave from, shared with the other lanes
         #: of a transfer (None: one the system picks for each connection)
         self.local_port = local_port
+        #: a lane of an adaptive transfer: its connections keep to the share :meth:`cap`
+        #: sets, not slowed further by UDT's own loss reaction (:mod:`links.udt.udt_cc`)
+        self.capped = capped
         self.max_rate_bps = max_rate_bps
         self.backoff = backoff or Backoff()
         self.connect_timeout = connect_timeout
@@ -370,6 +383,7 @@ class BulkSender:
         self._cap_on: float | None = None  # the cap the live socket has
         self._round_trip: float | None = None
         self._ceiling: float | None = None
+        self._packets: tuple[Any, int, int] | None = None
 
     def acknowledged(self) -> tuple[tuple[int, int] | None, int, bool] | None:
         """(segment, bytes of it the receiver acknowledged, whether data of it is still
@@ -391,6 +405,8 @@ class BulkSender:
         stats = udt_stats.read(sock)
         self._round_trip = None if stats is None else stats.round_trip
         self._ceiling = payload * 8 / stats.pace if stats and stats.pace and payload else None
+        if stats is not None:
+            self._packets = (sock, stats.sent, stats.resent)
         # data still to leave: what UDT holds less what it sent and awaits an ACK for
         unsent = pending if stats is None else pending - stats.in_flight * payload
         return manifest.segment, max(0, offset - pending), \
@@ -401,6 +417,12 @@ class BulkSender:
         included, as :meth:`acknowledged` last read it; None between transfers or before
         it settled. Called from another thread."""
         return self._round_trip
+
+    def packets(self) -> tuple[Any, int, int] | None:
+        """(the connection, data packets it sent, of them sent again) as :meth:`acknowledged`
+        last read them: what the lanes resend says an over-run radio (the rate probe's
+        :meth:`~links.udt.rate_probe.RateProbe.sent`). Called from another thread."""
+        return self._packets
 
     def ceiling(self) -> float | None:
         """The file bit/s UDT lets the connection under way send now, as
@@ -455,7 +477,7 @@ class BulkSender:
                 connect_timeout=self.connect_timeout, idle_timeout=self.idle_timeout,
                 give_up_after=self.give_up_after, retry_refusals=self.retry_refusals,
                 stop=stop, progress=progress, stall_timeout=self.stall_timeout,
-                keys=self.keys, pace=pace, local_port=local)
+                keys=self.keys, pace=pace, local_port=local, capped=self.lanes == 0)
 
         run = LaneRun(make_sender, self.lanes, self.max_rate_bps, self.stop, self.progress)
         failed, idle = run.send(path, manifest, count)
@@ -535,7 +557,7 @@ class BulkSender:
                 return sock, conn, True
             _close(sock)
         sock = _connect(self.address, self.connect_timeout, self.max_rate_bps,
-                        self.local_port)
+                        self.local_port, self.capped)
         return sock, SenderConnection(idle_timeout=self.idle_timeout, keys=self.keys), False
 
     def close(self) -> None:
@@ -573,7 +595,7 @@ class BulkSender:
                 # The kept connection died while idle (receiver restarted): a fresh one.
                 _close(sock)
                 sock = _connect(self.address, self.connect_timeout, self.max_rate_bps,
-                                self.local_port)
+                                self.local_port, self.capped)
                 conn = SenderConnection(idle_timeout=self.idle_timeout, keys=self.keys)
                 self._live, self._live_conn = sock, conn
                 self._cap_on = None

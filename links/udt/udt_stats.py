@@ -1,6 +1,6 @@
 """What libudt knows about a connection and udt4py does not pass on: the smoothed round
-trip, the packets in flight and the pace it sends at. Does I/O (reads the library's state
-through ctypes).
+trip, the packets in flight, the pace it sends at and how many packets it sent again.
+Does I/O (reads the library's state through ctypes).
 
 udt4py's ``perfmon`` fails on every call (its TraceInfo wrapper looks for a field it does
 not define), so the round trip is read with ``UDT::perfmon`` of the libudt udt4py is
@@ -65,6 +65,9 @@ class Stats:
     #: seconds between data packets UDT keeps to now: the longer of its congestion
     #: control's and the cap's (``UDT_MAXBW``); None before it has one
     pace: float | None = None
+    #: data packets sent on the connection so far, and of them sent again (lost)
+    sent: int = 0
+    resent: int = 0
 
 
 def read(sock: Any) -> Stats | None:
@@ -79,4 +82,5 @@ def read(sock: Any) -> Stats | None:
         return None
     settled = perf.msRTT > 0 and perf.pktRecvACKTotal >= SETTLED_ACKS
     return Stats(float(perf.msRTT) / 1000 if settled else None, max(0, perf.pktFlightSize),
-                 float(perf.usPktSndPeriod) / 1e6 if perf.usPktSndPeriod > 0 else None)
+                 float(perf.usPktSndPeriod) / 1e6 if perf.usPktSndPeriod > 0 else None,
+                 max(0, perf.pktSentTotal), max(0, perf.pktRetransTotal))

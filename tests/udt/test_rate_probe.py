@@ -7,6 +7,7 @@ import random
 
 import pytest
 
+from links.udt.lane_run import SharedRate
 from links.udt.rate_probe import RateProbe, filled_shares, final_shares, lane_share
 
 BASE = 0.040  # the path's own round trip
@@ -86,6 +87,31 @@ def test_a_full_radio_is_paced_at_what_it_delivers_toward_the_target_queue(queue
         assert rates[-1] == pytest.approx(9e6 * factor)
     else:
         assert rates[-1] >= 9e6
+
+
+@pytest.mark.parametrize(("sent", "again", "overrun"), [
+    (400, 120, True),   # 30 % sent again: the radio's queue drops what exceeds it
+    (400, 40, False),   # 10 %: a lossy radio's own (2 % each way: 2-5 % a step, at most 11 %)
+    (40, 20, False),    # too few packets to say
+])
+def test_lanes_sending_much_again_say_an_over_run_radio(sent, again, overrun):
+    """The lanes' connections do not slow down for losses (links.udt.udt_cc), so a rate
+    above the radio's shows in the packets they send again, whatever the round trips
+    say: the start ends, and the rate comes down by 15 % a step while it lasts."""
+    probe = RateProbe(**START)
+    run = Drive(probe)
+    run([(4e6, CLEAR), (6e6, CLEAR)])
+    assert probe.rate_bps == 9e6
+    probe.sent(sent, again)
+    (rate,) = run([(7e6, CLEAR)])
+    if overrun:
+        assert probe.phase == "paced"
+        assert rate == pytest.approx(0.85 * 9e6)
+    else:
+        assert probe.phase == "startup" and rate > 9e6
+    probe.sent(400, 12)  # counted afresh after a step judged; too few carry over
+    assert probe.resent_share() == pytest.approx(
+        0.03 if sent >= probe.counted else (again + 12) / (sent + 400))
 
 
 def test_smoothed_round_trips_end_the_start_at_a_short_queue():
@@ -307,3 +333,33 @@ def test_lanes_held_back_by_udt_leave_their_share_to_the_others(ceilings, shares
     if 0 < sum(held) <= 4:
         sent = sum(c if h else cap for cap, c, h in zip(got, ceilings, held, strict=True))
         assert sent == pytest.approx(9.6e6)
+
+
+class _Lane:
+    """What :class:`SharedRate` reads of a lane's sender, for one connection at a time."""
+
+    def __init__(self) -> None:
+        self.conn, self.sent, self.again = object(), 0, 0
+
+    def round_trip(self) -> None:
+        return None
+
+    def ceiling(self) -> None:
+        return None
+
+    def packets(self) -> tuple[object, int, int]:
+        return self.conn, self.sent, self.again
+
+
+def test_the_lanes_packets_sent_again_reach_the_probe_across_reconnections():
+    """Each connection counts from its opening: what a lane sent before it reconnected
+    is counted once, and its new connection's from zero."""
+    shared = SharedRate()
+    one, two = _Lane(), _Lane()
+    lanes = {1: one, 2: two}
+    one.sent, one.again, two.sent, two.again = 100, 2, 100, 3
+    shared.caps(0.0, 0, lanes, lanes)
+    one.sent, one.again = 300, 60
+    two.conn, two.sent, two.again = object(), 50, 40  # reconnected
+    shared.caps(0.05, 0, lanes, lanes)
+    assert shared.control.resent_share() == pytest.approx((60 + 43) / (300 + 150))
