@@ -44,11 +44,11 @@ least of its answers and the smoothed round trip.
 
 * The lanes' connections do not slow down for losses (:mod:`links.udt.udt_cc`), so a
   rate above the radio's is also read from the packets they send again: more than
-  ``overrun`` of a step's (at least ``counted`` packets) is no lossy radio (2 % loss each
-  way: 2-5 % a step, at most 11 % seen) but its queue dropping the excess. The start
-  ends, and the rate comes down by ``cut`` a step while it lasts (to what the receiver
-  acknowledged at once, a start's queue drops left the rate far below the radio's for a
-  second). Without it, once in a dozen pushes at 2 % loss the start ran on to 14 Mbit/s
+  ``overrun`` of a step's (at least ``counted`` packets; several times what a radio losing
+  2 % each way costs) is no lossy radio but its queue dropping the excess. The start
+  ends, and the rate comes down by ``cut`` a step while it lasts (cut at once to what the
+  receiver acknowledged, the queue drops of a start left it far below the radio's for a
+  while). Without it, once in a dozen pushes at 2 % loss the start ran on to 14 Mbit/s
   and the lanes' resent packets took the radio for seconds.
 
 The rate never falls below ``floor_bps``; with a budget it stays between ``near`` times

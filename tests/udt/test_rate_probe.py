@@ -91,7 +91,7 @@ def test_a_full_radio_is_paced_at_what_it_delivers_toward_the_target_queue(queue
 
 @pytest.mark.parametrize(("sent", "again", "overrun"), [
     (400, 120, True),   # 30 % sent again: the radio's queue drops what exceeds it
-    (400, 40, False),   # 10 %: a lossy radio's own (2 % each way: 2-5 % a step, at most 11 %)
+    (400, 40, False),   # 10 %: still a lossy radio's own losses
     (40, 20, False),    # too few packets to say
 ])
 def test_lanes_sending_much_again_say_an_over_run_radio(sent, again, overrun):
