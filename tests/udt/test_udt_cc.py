@@ -5,7 +5,6 @@ it below; unpaced it follows UDT's rules; where it is missing, everything runs a
 from __future__ import annotations
 
 import threading
-import time
 from pathlib import Path
 from typing import Any
 
@@ -14,9 +13,9 @@ import pytest
 pytest.importorskip("udt4py")
 
 from lossy_proxy import LossyProxy
-from udt_helpers import wait_for
+from udt_helpers import paces_until, wait_for
 
-from links.udt import UdtBulkChannel, udt_cc, udt_stats
+from links.udt import UdtBulkChannel, udt_cc
 from links.udt.image_server import ImageServer
 
 pytestmark = pytest.mark.udt
@@ -50,17 +49,6 @@ def _sink(install: bool) -> tuple[Any, list[Any], list[int], threading.Thread]:
     return server, accepted, received, thread
 
 
-def _paces(sock: Any, received: list[int]) -> list[float]:
-    """The seconds between packets libudt kept to while ``SIZE`` bytes went through."""
-    paces = []
-    while sum(received) < SIZE:
-        stats = udt_stats.read(sock)
-        if stats is not None and stats.pace is not None:
-            paces.append(stats.pace)
-        time.sleep(0.01)
-    return paces
-
-
 def _push(paced: bool) -> tuple[list[float], float]:
     """``SIZE`` bytes on one connection capped at ``CAP`` through a radio losing 3 % of
     its datagrams each way: (the paces kept, the cap's pace)."""
@@ -77,7 +65,7 @@ def _push(paced: bool) -> tuple[list[float], float]:
             assert udt_cc.pace(client)
         cap_pace = int(client.UDT_MSS) / CAP
         client.send(bytes(SIZE))
-        paces = _paces(client, received)
+        paces = paces_until(client, received, SIZE, 0.01)
         thread.join(10)
         assert proxy.counters["up_lost"] > 10  # the radio did lose data
         client.close()

@@ -12,7 +12,7 @@ import pytest
 pytest.importorskip("udt4py")
 
 from lossy_proxy import LossyProxy
-from udt_helpers import wait_for
+from udt_helpers import paces_until, wait_for
 
 from links.udt import udt_stats
 
@@ -74,12 +74,7 @@ def test_a_capped_connection_reports_the_pace_of_its_cap():
         client.UDT_MAXBW = 1_000_000  # bytes/s on the wire: a packet every MSS µs
         expected = int(client.UDT_MSS) / 1e6
         client.send(bytes(size))
-        paces = []
-        while sum(received) < size:
-            stats = udt_stats.read(client)
-            if stats is not None and stats.pace is not None:
-                paces.append(stats.pace)
-            time.sleep(0.02)
+        paces = paces_until(client, received, size, 0.02)
         thread.join(10)
         client.close()
     server.close()

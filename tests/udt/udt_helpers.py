@@ -1,4 +1,5 @@
-"""Helpers of the UDT bulk-transfer tests: hashes, free ports, waiting, a raw client."""
+"""Helpers of the UDT bulk-transfer tests: hashes, free ports, waiting, a connection's
+pace, a raw client."""
 
 from __future__ import annotations
 
@@ -27,6 +28,20 @@ def wait_for(predicate: Callable[[], Any], timeout: float, what: str) -> Any:
             return value
         time.sleep(0.02)
     raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+
+
+def paces_until(sock: Any, received: list[int], size: int, every: float) -> list[float]:
+    """The seconds between packets libudt kept to on ``sock`` (read every ``every``
+    seconds) until ``received`` (byte counts read at the far end) adds up to ``size``."""
+    from links.udt import udt_stats
+
+    paces = []
+    while sum(received) < size:
+        stats = udt_stats.read(sock)
+        if stats is not None and stats.pace is not None:
+            paces.append(stats.pace)
+        time.sleep(every)
+    return paces
 
 
 class RawClient:
