@@ -55,9 +55,9 @@ public:
         setACKTimer(interval_);  // microseconds, as libudt reads it: one ACK per SYN
         last_rc_ = micros();
         // libudt applies UDT_MAXBW from the first ACK on, and sends the opening window
-        // before it as fast as it can: 16 packets from each lane as it opened queued
-        // 19 ms at a 10 Mbit/s radio, which ended the rate probe's start early. Paced
-        // from the start, the manifest and one packet more go before the first ACK.
+        // before it as fast as it can: 16 packets from each lane as it opened, 19 ms of
+        // a 10 Mbit/s radio's queue each. Paced from the start (a lane whose cap is set
+        // before it sends), the manifest and one packet more go before the first ACK.
         m_dCWndSize = paced ? 2 : 16;
         m_dPktSndPeriod = 1.0;
         slow_start_ = true;
