@@ -13,9 +13,10 @@ data already sent, or for a receipt leaves its share to the others, and one that
 own loss reaction holds below its share, without that library, leaves what it cannot
 send; once every segment is handed out, a share in proportion to what the lane has
 still to deliver, so that the last lanes finish together), starts lanes one per tick
-and, once every segment is handed out, takes a stalled one over on an idle lane (the
-receiver hands the segment to the newest connection and resumes it at the bytes it
-holds).
+(a connection opens with a window of packets sent before its cap applies: 16, or 2 for
+a push's lane paced from its start by :mod:`links.udt.udt_cc`) and, once every segment
+is handed out, takes a stalled one over on an idle lane (the receiver hands the segment
+to the newest connection and resumes it at the bytes it holds).
 
 :class:`SharedRate` is the pacing itself, shared with the image server, whose answers to
 a fetcher's lanes are paced the same way from the side that sends the data.

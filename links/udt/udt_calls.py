@@ -94,7 +94,7 @@ class _SockaddrIn(ctypes.Structure):
                 ("address", ctypes.c_uint8 * 4), ("zero", ctypes.c_uint8 * 8)]
 
 
-def _handle(sock: Any) -> int | None:
+def socket_id(sock: Any) -> int | None:
     """The libudt socket id of a udt4py socket; None once udt4py closed it."""
     handle = getattr(sock, "socket", None)
     return handle if isinstance(handle, int) else None
@@ -102,7 +102,7 @@ def _handle(sock: Any) -> int | None:
 
 def state(sock: Any) -> int:
     """The socket's ``UDTSTATUS`` (compare with udt4py's ``UDTSocket.Status``)."""
-    fn, handle = _fn("state"), _handle(sock)
+    fn, handle = _fn("state"), socket_id(sock)
     if fn is None:
         return int(sock.status)
     return CLOSED if handle is None else int(fn(handle))
@@ -110,7 +110,7 @@ def state(sock: Any) -> int:
 
 def get_option(sock: Any, name: str) -> int | None:
     """An option's value as udt4py reads it; None when libudt refuses (a closed socket)."""
-    fn, handle = _fn("get"), _handle(sock)
+    fn, handle = _fn("get"), socket_id(sock)
     if fn is None:
         return int(getattr(sock, name))
     if handle is None:
@@ -128,7 +128,7 @@ def get_option(sock: Any, name: str) -> int | None:
 def set_option(sock: Any, name: str, value: int) -> bool:
     """Set an option as udt4py does (the value in eight bytes); False when libudt refuses
     (a closed or broken socket)."""
-    fn, handle = _fn("set"), _handle(sock)
+    fn, handle = _fn("set"), socket_id(sock)
     if fn is None:
         setattr(sock, name, value)
         return True
@@ -142,7 +142,7 @@ def bind_any(sock: Any, port: int) -> int | None:
     """Bind the socket to ``port`` (0: one the system picks) on every IPv4 address and
     return the port it got; None when libudt refuses (the port taken, a closed socket).
     Binding sets up the socket's multiplexer behind libudt's global lock."""
-    bind, name, handle = _fn("bind"), _fn("name"), _handle(sock)
+    bind, name, handle = _fn("bind"), _fn("name"), socket_id(sock)
     if bind is None or name is None:
         try:
             sock.bind(("0.0.0.0", port))

@@ -168,6 +168,14 @@ public:
     PacedCC() : EdgeCC(true) {}
 };
 
+// This control of a connected socket; null when it is not connected or has another.
+EdgeCC* edge_cc_of(int sock) {
+    CCC* cc = nullptr;
+    int size = sizeof(cc);
+    if (UDT::getsockopt(sock, 0, UDT_CC, &cc, &size) != 0 || cc == nullptr) return nullptr;
+    return dynamic_cast<EdgeCC*>(cc);
+}
+
 }  // namespace
 
 extern "C" {
@@ -185,10 +193,7 @@ int edge_udt_cc_install(int sock, int paced) {
 // Pace a connected socket by UDT_MAXBW alone (on != 0) or by UDT's rules again. 0 on
 // success, -1 when the socket is not connected or has another control.
 int edge_udt_cc_pace(int sock, int on) {
-    CCC* cc = nullptr;
-    int size = sizeof(cc);
-    if (UDT::getsockopt(sock, 0, UDT_CC, &cc, &size) != 0 || cc == nullptr) return -1;
-    EdgeCC* edge = dynamic_cast<EdgeCC*>(cc);
+    EdgeCC* edge = edge_cc_of(sock);
     if (edge == nullptr) return -1;
     edge->paced = on != 0;
     return 0;
@@ -196,10 +201,7 @@ int edge_udt_cc_pace(int sock, int on) {
 
 // Whether a connected socket is paced by UDT_MAXBW alone: 1, 0, or -1 (not this control).
 int edge_udt_cc_paced(int sock) {
-    CCC* cc = nullptr;
-    int size = sizeof(cc);
-    if (UDT::getsockopt(sock, 0, UDT_CC, &cc, &size) != 0 || cc == nullptr) return -1;
-    EdgeCC* edge = dynamic_cast<EdgeCC*>(cc);
+    EdgeCC* edge = edge_cc_of(sock);
     return edge == nullptr ? -1 : (edge->paced ? 1 : 0);
 }
 

@@ -26,6 +26,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from links.udt.udt_calls import socket_id
+
 log = logging.getLogger(__name__)
 
 LIBRARY = "libedge_udt_cc.so"
@@ -65,16 +67,11 @@ def available() -> bool:
     return _library() is not None
 
 
-def _handle(sock: Any) -> int | None:
-    handle = getattr(sock, "socket", None)
-    return handle if isinstance(handle, int) else None
-
-
 def install(sock: Any, paced: bool = False) -> bool:
     """Give a udt4py socket not yet bound or connected this control (a listener's
     connections inherit it): paced by its ``UDT_MAXBW`` alone from its first packet, or on
     UDT's rules until :func:`pace`. False: not installed."""
-    lib, handle = _library(), _handle(sock)
+    lib, handle = _library(), socket_id(sock)
     return lib is not None and handle is not None \
         and lib.edge_udt_cc_install(handle, int(paced)) == 0
 
@@ -82,14 +79,14 @@ def install(sock: Any, paced: bool = False) -> bool:
 def pace(sock: Any, on: bool = True) -> bool:
     """Pace a connected socket by its ``UDT_MAXBW`` alone (``on``) or by UDT's rules again;
     False when the socket is closed or does not have this control."""
-    lib, handle = _library(), _handle(sock)
+    lib, handle = _library(), socket_id(sock)
     return lib is not None and handle is not None and lib.edge_udt_cc_pace(handle, int(on)) == 0
 
 
 def paced(sock: Any) -> bool | None:
     """Whether a connected socket is paced by ``UDT_MAXBW`` alone; None when it does not
     have this control (or is closed)."""
-    lib, handle = _library(), _handle(sock)
+    lib, handle = _library(), socket_id(sock)
     if lib is None or handle is None:
         return None
     state = lib.edge_udt_cc_paced(handle)

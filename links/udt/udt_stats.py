@@ -73,9 +73,8 @@ class Stats:
 def read(sock: Any) -> Stats | None:
     """What libudt knows of ``sock`` (a udt4py socket); None when it cannot be read (no
     library, a closed socket)."""
-    fn = _function()
-    handle = getattr(sock, "socket", None)
-    if fn is None or not isinstance(handle, int):
+    fn, handle = _function(), udt_calls.socket_id(sock)
+    if fn is None or handle is None:
         return None
     perf = _PerfMon()
     if fn(handle, ctypes.byref(perf), False) != 0:
